@@ -1,0 +1,112 @@
+//! Piecewise-constant discrete distributions (light selection by power, guided-pdf cells).
+
+/// A discrete distribution over `n` items proportional to non-negative weights.
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    /// Cumulative weights normalised to end at 1; `cdf[0] = 0`, length n + 1.
+    cdf: Vec<f32>,
+    /// Probability of each item.
+    pmf: Vec<f32>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Builds the distribution; returns `None` if there are no weights, any weight is negative or
+    /// non-finite, or all are zero.
+    pub fn new(weights: &[f32]) -> Option<Self> {
+        if weights.is_empty() || weights.iter().any(|w| !w.is_finite() || *w < 0.0) {
+            return None;
+        }
+        let total: f64 = weights.iter().map(|&w| w as f64).sum();
+        if total <= 0.0 {
+            return None;
+        }
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        let mut acc = 0.0f64;
+        cdf.push(0.0);
+        for &w in weights {
+            acc += w as f64;
+            cdf.push((acc / total) as f32);
+        }
+        *cdf.last_mut().unwrap() = 1.0;
+        let pmf = weights.iter().map(|&w| (w as f64 / total) as f32).collect();
+        Some(Self { cdf, pmf, total })
+    }
+
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// Sum of the weights the distribution was built from.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// Probability of item `i`.
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    /// Picks an item with `u ∈ [0,1)`; returns the item, its probability and `u` remapped to
+    /// [0,1) within the item (so one uniform number can be reused).
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        // Largest i with cdf[i] <= u, skipping zero-probability items.
+        let mut i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1);
+        i = i.min(self.pmf.len() - 1);
+        while self.pmf[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        while self.pmf[i] == 0.0 {
+            i += 1;
+        }
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let u_rem = if width > 0.0 {
+            ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.0
+        };
+        (i, self.pmf[i], u_rem)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    #[test]
+    fn sampling_frequencies_match_pmf() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0, 4.0]).unwrap();
+        let mut counts = [0u32; 4];
+        let mut rng = Rng::for_task(3, [0, 0, 0]);
+        let n = 80_000;
+        for _ in 0..n {
+            let (i, p, u) = d.sample(rng.uniform());
+            assert_eq!(p, d.pmf(i));
+            assert!((0.0..1.0).contains(&u));
+            counts[i] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        let expected = [0.125, 0.0, 0.375, 0.5];
+        let chi2 = crate::sampling::chi2::chi2_statistic(
+            &counts.iter().map(|&c| c as f64).collect::<Vec<_>>(),
+            &expected.iter().map(|&p| p * n as f64).collect::<Vec<_>>(),
+            5.0,
+        );
+        assert!(chi2.p_value > 1e-4, "{chi2:?}");
+    }
+
+    #[test]
+    fn rejects_degenerate_weights() {
+        assert!(Distribution1D::new(&[]).is_none());
+        assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
+        assert!(Distribution1D::new(&[1.0, f32::NAN]).is_none());
+        assert!(Distribution1D::new(&[1.0, -1.0]).is_none());
+    }
+}

@@ -1,0 +1,221 @@
+//! Scenes as plain data: camera, materials, primitives, lights and user paths. Strategies read
+//! a [`Scene`]; nothing mutates it after loading.
+//!
+//! `load` reads `scenes/*.toml` (format documented in the README and in [`desc`]) with OBJ/MTL
+//! meshes through tobj, validates every field, and assembles the runtime scene here.
+
+pub mod desc;
+pub mod load;
+
+pub use load::load_scene;
+
+use crate::bsdf::Bsdf;
+use crate::camera::Camera;
+use crate::error::Result;
+use crate::geometry::{Accel, Frame, Hit, Primitive, Ray};
+use crate::light::{AreaLight, Emission};
+use crate::sampling::Distribution1D;
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// A named material.
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub name: String,
+    pub bsdf: Bsdf,
+}
+
+/// What a primitive is made of, besides its shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrimAttrs {
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Per-vertex shading normals of a triangle (from OBJ files), if any.
+    pub normals: Option<[Vec3; 3]>,
+    /// Emission, if the primitive is (part of) an area light.
+    pub emission: Option<Emission>,
+}
+
+/// A user path for Metropolis photon sampling's UP proposal [Fan et al. 2005, §4.3]: a point on
+/// a light, then surface points, the last on a diffuse surface; `cone_deg` holds the cone
+/// half-angle β of each segment.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UserPath {
+    pub points: Vec<Vec3>,
+    pub cone_deg: Vec<f32>,
+}
+
+/// The runtime scene.
+pub struct Scene {
+    pub name: String,
+    /// The file it was loaded from.
+    pub source: PathBuf,
+    /// Hash of the scene file and every file it references (hex), recorded with every result.
+    pub content_hash: String,
+    pub camera: Camera,
+    pub materials: Vec<Material>,
+    pub primitives: Vec<Primitive>,
+    pub attrs: Vec<PrimAttrs>,
+    pub lights: Vec<AreaLight>,
+    /// Light index of each primitive (`u32::MAX` for none).
+    light_of_prim: Vec<u32>,
+    /// Light selection ∝ emitted power (luminance).
+    pub light_selection: Distribution1D,
+    pub user_paths: Vec<UserPath>,
+    pub accel: Accel,
+}
+
+/// A ray's hit on a surface, with its local shading frame.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub t: f32,
+    pub p: Vec3,
+    /// Unit geometric normal (triangles: from the winding; spheres: outward).
+    pub ng: Vec3,
+    /// Shading frame; `frame.n` is the shading normal, on the same side as `ng`.
+    pub frame: Frame,
+    pub prim: u32,
+    pub material: u32,
+}
+
+/// Relative luminance of linear Rec. 709 RGB.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+impl Scene {
+    /// Assembles a scene from validated parts; fails when nothing emits light.
+    #[allow(clippy::too_many_arguments)]
+    pub fn assemble(
+        name: String,
+        source: PathBuf,
+        content_hash: String,
+        camera: Camera,
+        materials: Vec<Material>,
+        primitives: Vec<Primitive>,
+        attrs: Vec<PrimAttrs>,
+        user_paths: Vec<UserPath>,
+    ) -> Result<Scene> {
+        assert_eq!(primitives.len(), attrs.len());
+        let mut lights = Vec::new();
+        let mut light_of_prim = vec![u32::MAX; primitives.len()];
+        for (i, (prim, a)) in primitives.iter().zip(&attrs).enumerate() {
+            if let Some(emission) = a.emission {
+                let area = prim.area();
+                if area > 0.0 && emission.le.max_element() > 0.0 {
+                    light_of_prim[i] = lights.len() as u32;
+                    lights.push(AreaLight {
+                        prim: i as u32,
+                        emission,
+                        area,
+                    });
+                }
+            }
+        }
+        let weights: Vec<f32> = lights
+            .iter()
+            .map(|l| luminance(l.power()).max(0.0))
+            .collect();
+        let Some(light_selection) = Distribution1D::new(&weights) else {
+            crate::bail!(
+                "{}: the scene has no light with positive power (add an `emission` to a shape)",
+                source.display()
+            );
+        };
+        let accel = Accel::build(&primitives);
+        Ok(Scene {
+            name,
+            source,
+            content_hash,
+            camera,
+            materials,
+            primitives,
+            attrs,
+            lights,
+            light_of_prim,
+            light_selection,
+            user_paths,
+            accel,
+        })
+    }
+
+    /// Closest surface hit along `ray`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        self.accel.intersect(ray).map(|h| self.surface_hit(ray, h))
+    }
+
+    /// True when nothing blocks the segment of `ray` up to its `t_max`.
+    #[inline]
+    pub fn unoccluded(&self, ray: &Ray) -> bool {
+        self.accel.unoccluded(ray)
+    }
+
+    /// Builds the surface description of a hit. Hit points are recomputed from barycentrics
+    /// (triangles) or reprojected onto the sphere, which keeps them on the surface to within
+    /// a few ULPs: the robust ray offset relies on it.
+    pub fn surface_hit(&self, ray: &Ray, hit: Hit) -> SurfaceHit {
+        let i = hit.prim as usize;
+        let attrs = &self.attrs[i];
+        let (p, ng, ns, tangent) = match self.primitives[i] {
+            Primitive::Triangle([a, b, c]) => {
+                let b0 = 1.0 - hit.b.x - hit.b.y;
+                let p = b0 * a + hit.b.x * b + hit.b.y * c;
+                let ng = (b - a).cross(c - a).normalize();
+                let ns = match attrs.normals {
+                    Some([na, nb, nc]) => {
+                        let n = (b0 * na + hit.b.x * nb + hit.b.y * nc).normalize_or_zero();
+                        if n == Vec3::ZERO {
+                            ng
+                        } else if n.dot(ng) < 0.0 {
+                            -n
+                        } else {
+                            n
+                        }
+                    }
+                    None => ng,
+                };
+                (p, ng, ns, b - a)
+            }
+            Primitive::Sphere { center, radius } => {
+                let dir = (ray.at(hit.t) - center).normalize();
+                let n = dir;
+                // Tangent along increasing longitude around the sphere's y axis.
+                (center + radius * dir, n, n, Vec3::new(-dir.z, 0.0, dir.x))
+            }
+        };
+        SurfaceHit {
+            t: hit.t,
+            p,
+            ng,
+            frame: Frame::from_normal_tangent(ns, tangent),
+            prim: hit.prim,
+            material: attrs.material,
+        }
+    }
+
+    #[inline]
+    pub fn bsdf(&self, hit: &SurfaceHit) -> &Bsdf {
+        &self.materials[hit.material as usize].bsdf
+    }
+
+    /// The light a primitive belongs to, if it emits.
+    #[inline]
+    pub fn light_of(&self, prim: u32) -> Option<&AreaLight> {
+        let l = self.light_of_prim[prim as usize];
+        (l != u32::MAX).then(|| &self.lights[l as usize])
+    }
+
+    /// Index of the light a primitive belongs to, if it emits.
+    #[inline]
+    pub fn light_index_of(&self, prim: u32) -> Option<usize> {
+        let l = self.light_of_prim[prim as usize];
+        (l != u32::MAX).then_some(l as usize)
+    }
+
+    /// Total emitted power of all lights, per channel.
+    pub fn total_power(&self) -> Vec3 {
+        self.lights.iter().map(|l| l.power()).sum()
+    }
+}
