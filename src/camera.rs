@@ -25,14 +25,7 @@ pub struct Camera {
 impl Camera {
     /// Builds the camera; the caller has validated that eye ≠ look_at, up is not parallel to
     /// the view direction, 0 < fov < 180 and the resolution is positive.
-    pub fn new(
-        eye: Vec3,
-        look_at: Vec3,
-        up: Vec3,
-        fov_y_deg: f32,
-        width: u32,
-        height: u32,
-    ) -> Self {
+    pub fn new(eye: Vec3, look_at: Vec3, up: Vec3, fov_y_deg: f32, width: u32, height: u32) -> Self {
         let forward = (look_at - eye).normalize();
         let right = forward.cross(up).normalize();
         let true_up = right.cross(forward);
@@ -62,9 +55,7 @@ impl Camera {
     pub fn generate_ray(&self, raster: Vec2) -> Ray {
         let ndc_x = 2.0 * raster.x / self.width as f32 - 1.0;
         let ndc_y = 1.0 - 2.0 * raster.y / self.height as f32;
-        let d = self.forward
-            + self.right * (ndc_x * self.half_w)
-            + self.true_up * (ndc_y * self.half_h);
+        let d = self.forward + self.right * (ndc_x * self.half_w) + self.true_up * (ndc_y * self.half_h);
         Ray::new(self.eye, d.normalize())
     }
 
@@ -81,10 +72,7 @@ impl Camera {
             (ndc_x + 1.0) * 0.5 * self.width as f32,
             (1.0 - ndc_y) * 0.5 * self.height as f32,
         );
-        (raster.x >= 0.0
-            && raster.y >= 0.0
-            && raster.x < self.width as f32
-            && raster.y < self.height as f32)
+        (raster.x >= 0.0 && raster.y >= 0.0 && raster.x < self.width as f32 && raster.y < self.height as f32)
             .then_some(raster)
     }
 
@@ -112,11 +100,7 @@ mod tests {
             80,
             60,
         );
-        for raster in [
-            Vec2::new(0.5, 0.5),
-            Vec2::new(40.0, 30.0),
-            Vec2::new(79.2, 12.7),
-        ] {
+        for raster in [Vec2::new(0.5, 0.5), Vec2::new(40.0, 30.0), Vec2::new(79.2, 12.7)] {
             let r = cam.generate_ray(raster);
             let back = cam.raster_position(r.d).unwrap();
             assert!((back - raster).length() < 1e-3, "{raster} -> {back}");

@@ -1,7 +1,11 @@
 //! Film: per-pixel accumulation of samples in linear RGB, with non-finite samples counted and
 //! excluded; the resulting [`Image`] and its EXR / PNG input and output.
 
+use crate::error::{Context, Error, Result};
+use crate::util::{write_atomic, write_atomic_with};
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use std::path::Path;
 
 /// A linear-RGB image, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -33,23 +37,26 @@ impl Image {
 }
 
 /// Accumulated samples of one render.
+///
+/// Each pixel's samples are added one by one in sample order, whether they arrive in one pass
+/// or several, so a render split into passes is bit-identical to one pass.
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
-    /// Sum of finite samples per pixel (f64 so that 32 000-spp references keep full precision).
-    sum: Vec<DVec3>,
-    /// Number of finite samples per pixel.
-    count: Vec<u32>,
-    /// Samples dropped because a channel was NaN or infinite.
-    pub non_finite: u64,
+    pixels: Vec<PixelAccumulator>,
+    /// Non-finite splats (splats belong to no pixel sample).
+    non_finite_splats: u64,
 }
 
-/// The accumulator of one pixel, handed to the worker that owns that pixel.
+/// The accumulator of one pixel.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PixelAccumulator {
+    /// Sum of finite samples (f64 so that 32 000-spp references keep full precision).
     pub sum: DVec3,
+    /// Number of finite samples.
     pub count: u32,
+    /// Samples dropped because a channel was NaN or infinite.
     pub non_finite: u32,
 }
 
@@ -71,40 +78,38 @@ impl Film {
         Self {
             width,
             height,
-            sum: vec![DVec3::ZERO; n],
-            count: vec![0; n],
-            non_finite: 0,
+            pixels: vec![PixelAccumulator::default(); n],
+            non_finite_splats: 0,
         }
     }
 
-    /// Adds per-pixel accumulators of one pass (one per pixel, in row-major order).
-    pub fn add_pass(&mut self, pass: &[PixelAccumulator]) {
-        assert_eq!(pass.len(), self.sum.len());
-        for (i, acc) in pass.iter().enumerate() {
-            self.sum[i] += acc.sum;
-            self.count[i] += acc.count;
-            self.non_finite += acc.non_finite as u64;
-        }
+    /// Rows of pixel accumulators, for parallel rendering (row index, pixels of the row).
+    pub fn rows_mut(&mut self) -> impl IndexedParallelIterator<Item = (usize, &mut [PixelAccumulator])> {
+        self.pixels.par_chunks_mut(self.width as usize).enumerate()
     }
 
     /// Adds a splatted contribution (light tracing, MLT) to pixel `index`; it counts no sample.
     pub fn splat(&mut self, index: usize, l: Vec3) {
         if l.is_finite() {
-            self.sum[index] += l.as_dvec3();
+            self.pixels[index].sum += l.as_dvec3();
         } else {
-            self.non_finite += 1;
+            self.non_finite_splats += 1;
         }
+    }
+
+    /// Samples (and splats) dropped because they were NaN or infinite.
+    pub fn non_finite(&self) -> u64 {
+        self.non_finite_splats + self.pixels.iter().map(|p| p.non_finite as u64).sum::<u64>()
     }
 
     /// The image: the mean of the finite samples of each pixel.
     pub fn image(&self) -> Image {
         let pixels = self
-            .sum
+            .pixels
             .iter()
-            .zip(&self.count)
-            .map(|(s, &c)| {
-                if c > 0 {
-                    (*s / c as f64).as_vec3()
+            .map(|p| {
+                if p.count > 0 {
+                    (p.sum / p.count as f64).as_vec3()
                 } else {
                     Vec3::ZERO
                 }
@@ -117,14 +122,387 @@ impl Film {
         }
     }
 
-    /// The image scaled by `1/n` instead of by each pixel's sample count (for splatting
-    /// estimators, whose pixels receive a varying number of contributions).
+    /// The pixel sums scaled by `scale` instead of divided by each pixel's sample count (for
+    /// splatting estimators, whose pixels receive a varying number of contributions).
     pub fn image_scaled(&self, scale: f64) -> Image {
-        let pixels = self.sum.iter().map(|s| (*s * scale).as_vec3()).collect();
+        let pixels = self.pixels.iter().map(|p| (p.sum * scale).as_vec3()).collect();
         Image {
             width: self.width,
             height: self.height,
             pixels,
         }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Image input and output.
+
+/// Checks that `image.pixels` holds `width · height` pixels.
+fn check_pixel_count(image: &Image, what: impl std::fmt::Display) -> Result<()> {
+    let expected = image.width as usize * image.height as usize;
+    if image.pixels.len() != expected {
+        return Err(Error::new(format!(
+            "{what}: a {}x{} image must hold {expected} pixels, not {}",
+            image.width,
+            image.height,
+            image.pixels.len()
+        )));
+    }
+    Ok(())
+}
+
+/// Writes `image` as an OpenEXR file of 32-bit float R, G, B channels, ZIP-compressed in blocks
+/// of 16 scanlines (`Encoding::SMALL_LOSSLESS`: lossless, and much smaller than the default RLE
+/// on noisy renders, which matters for committed references). The file is written atomically.
+pub fn write_exr(image: &Image, path: &Path) -> Result<()> {
+    use exr::prelude::{Encoding, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage};
+    check_pixel_count(image, path.display())?;
+    let width = image.width as usize;
+    let layer = Layer::new(
+        (width, image.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        SpecificChannels::rgb(|pos: Vec2<usize>| {
+            let p = image.pixels[pos.y() * width + pos.x()];
+            (p.x, p.y, p.z)
+        }),
+    );
+    let exr_image = exr::prelude::Image::from_layer(layer);
+    write_atomic_with(path, |tmp| {
+        exr_image
+            .write()
+            .to_file(tmp)
+            .context(format_args!("{}: cannot write EXR", path.display()))
+    })
+}
+
+/// Reads the first RGB(A) layer of an OpenEXR file as f32 linear RGB (alpha is ignored).
+/// A missing, unreadable or corrupt file is a one-line error naming the path.
+pub fn read_exr(path: &Path) -> Result<Image> {
+    let read = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| {
+            (
+                resolution.width(),
+                vec![Vec3::ZERO; resolution.width() * resolution.height()],
+            )
+        },
+        |(width, pixels), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[pos.y() * *width + pos.x()] = Vec3::new(r, g, b);
+        },
+    )
+    .context(format_args!("{}: cannot read EXR", path.display()))?;
+    let size = read.layer_data.size;
+    let (_, pixels) = read.layer_data.channel_data.pixels;
+    let (Ok(width), Ok(height)) = (u32::try_from(size.width()), u32::try_from(size.height())) else {
+        return Err(Error::new(format!(
+            "{}: EXR of {}x{} pixels is too large",
+            path.display(),
+            size.width(),
+            size.height()
+        )));
+    };
+    Ok(Image { width, height, pixels })
+}
+
+/// The sRGB opto-electronic transfer function (IEC 61966-2-1): linear `[0, 1]` to encoded
+/// `[0, 1]`; input outside `[0, 1]` is clamped first and NaN maps to 0.
+pub fn srgb_encode(linear: f32) -> f32 {
+    let v = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Linear `[0, 1]` to an 8-bit sRGB code value, rounded to nearest.
+#[inline]
+fn srgb8(linear: f32) -> u8 {
+    (srgb_encode(linear) * 255.0 + 0.5) as u8
+}
+
+/// Encodes an 8-bit RGB buffer as PNG and writes it atomically.
+fn write_rgb8_png(rgb: image::RgbImage, path: &Path) -> Result<()> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    rgb.write_to(&mut bytes, image::ImageFormat::Png)
+        .context(format_args!("{}: cannot encode PNG", path.display()))?;
+    write_atomic(path, bytes.get_ref())
+}
+
+/// Writes an 8-bit sRGB PNG preview of a linear-RGB image: each channel is scaled by
+/// `2^exposure_stops` (0 leaves the image as is, +1 doubles it), clamped to `[0, 1]` and
+/// encoded with the sRGB transfer function ([`srgb_encode`]). The file is written atomically.
+pub fn write_png(image: &Image, path: &Path, exposure_stops: f32) -> Result<()> {
+    check_pixel_count(image, path.display())?;
+    let scale = exposure_stops.exp2();
+    let rgb = image::RgbImage::from_fn(image.width, image.height, |x, y| {
+        let p = image.get(x, y) * scale;
+        image::Rgb([srgb8(p.x), srgb8(p.y), srgb8(p.z)])
+    });
+    write_rgb8_png(rgb, path)
+}
+
+/// Per-pixel relative errors below this value get the bottom colour of the error map.
+pub const ERROR_MAP_MIN: f64 = 1e-3;
+/// Per-pixel relative errors above this value get the top colour of the error map.
+pub const ERROR_MAP_MAX: f64 = 10.0;
+/// Colour of pixels whose error is NaN (not part of the colormap).
+pub const ERROR_MAP_NAN_RGB: [u8; 3] = [255, 0, 0];
+
+/// Viridis (van der Walt & Smith, matplotlib's default colormap; perceptually uniform and
+/// readable in greyscale and by colour-blind viewers) sampled at 9 evenly spaced stops, in
+/// 8-bit sRGB.
+const VIRIDIS_STOPS: [[u8; 3]; 9] = [
+    [0x44, 0x01, 0x54],
+    [0x47, 0x2d, 0x7b],
+    [0x3b, 0x52, 0x8b],
+    [0x2c, 0x72, 0x8e],
+    [0x21, 0x90, 0x8c],
+    [0x27, 0xad, 0x81],
+    [0x5d, 0xc8, 0x63],
+    [0xaa, 0xdc, 0x32],
+    [0xfd, 0xe7, 0x25],
+];
+
+/// Viridis at `t ∈ [0, 1]` (clamped), linearly interpolated between the 9 stops.
+pub fn viridis(t: f64) -> [u8; 3] {
+    let x = t.clamp(0.0, 1.0) * (VIRIDIS_STOPS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(VIRIDIS_STOPS.len() - 2);
+    let f = x - i as f64;
+    let (a, b) = (VIRIDIS_STOPS[i], VIRIDIS_STOPS[i + 1]);
+    std::array::from_fn(|c| (a[c] as f64 + f * (b[c] as f64 - a[c] as f64)).round() as u8)
+}
+
+/// Per-pixel relative error `e = √(mean_c (I − R)² / (R² + ε))`, ε =
+/// [`crate::metrics::REL_MSE_EPSILON`]: the square root of the pixel's relMSE term, so
+/// `e ≈ |I − R| / R` (0.1 means 10 % off).
+pub fn relative_error_per_pixel(image: &Image, reference: &Image) -> Result<Vec<f64>> {
+    if (image.width, image.height) != (reference.width, reference.height) {
+        return Err(Error::new(format!(
+            "cannot map the error of a {}x{} image against a {}x{} reference: sizes differ",
+            image.width, image.height, reference.width, reference.height
+        )));
+    }
+    check_pixel_count(image, "error map image")?;
+    check_pixel_count(reference, "error map reference")?;
+    let eps = crate::metrics::REL_MSE_EPSILON;
+    Ok(image
+        .pixels
+        .iter()
+        .zip(&reference.pixels)
+        .map(|(i, r)| {
+            let (i, r) = (i.as_dvec3(), r.as_dvec3());
+            (((i - r) * (i - r) / (r * r + eps)).element_sum() / 3.0).sqrt()
+        })
+        .collect())
+}
+
+/// Colour of one relative error on the logarithmic error-map scale: `log10 e` from
+/// `log10 ERROR_MAP_MIN` (−3, bottom of viridis, dark purple) to `log10 ERROR_MAP_MAX`
+/// (+1, top, yellow), one decade per quarter of the colormap; zero and smaller errors clamp to
+/// the bottom, larger and infinite ones to the top; NaN is [`ERROR_MAP_NAN_RGB`].
+pub fn error_map_colour(e: f64) -> [u8; 3] {
+    if e.is_nan() {
+        return ERROR_MAP_NAN_RGB;
+    }
+    let (lo, hi) = (ERROR_MAP_MIN.log10(), ERROR_MAP_MAX.log10());
+    // log10(0) = -inf clamps to 0 below.
+    viridis((e.log10() - lo) / (hi - lo))
+}
+
+/// Writes a false-colour PNG of the per-pixel relative error of `image` against `reference`
+/// ([`relative_error_per_pixel`]), on the logarithmic viridis scale of [`error_map_colour`]:
+/// dark purple ≤ 0.1 %, blue-green ≈ 10 %, yellow ≥ 1000 %. The file is written atomically.
+pub fn write_error_png(image: &Image, reference: &Image, path: &Path) -> Result<()> {
+    let errors = relative_error_per_pixel(image, reference)?;
+    let width = image.width as usize;
+    let rgb = image::RgbImage::from_fn(image.width, image.height, |x, y| {
+        image::Rgb(error_map_colour(errors[y as usize * width + x as usize]))
+    });
+    write_rgb8_png(rgb, path)
+}
+
+/// Places `images` side by side, left to right and top-aligned, with `gap_px` black columns
+/// between neighbours; shorter images are padded with black below. The strip is as tall as
+/// the tallest image; an empty slice gives a 0x0 image.
+pub fn image_strip(images: &[&Image], gap_px: u32) -> Image {
+    let height = images.iter().map(|im| im.height).max().unwrap_or(0);
+    let width = images.iter().map(|im| im.width).sum::<u32>() + gap_px * images.len().saturating_sub(1) as u32;
+    let mut strip = Image::new(width, height);
+    let mut x0 = 0usize;
+    for im in images {
+        for y in 0..im.height as usize {
+            let src = &im.pixels[y * im.width as usize..(y + 1) * im.width as usize];
+            let dst = y * width as usize + x0;
+            strip.pixels[dst..dst + src.len()].copy_from_slice(src);
+        }
+        x0 += (im.width + gap_px) as usize;
+    }
+    strip
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(width: u32, height: u32, pixels: &[[f32; 3]]) -> Image {
+        Image {
+            width,
+            height,
+            pixels: pixels.iter().map(|&p| Vec3::from(p)).collect(),
+        }
+    }
+
+    fn bits(image: &Image) -> Vec<[u32; 3]> {
+        image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    }
+
+    #[test]
+    fn exr_round_trip_is_bit_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ref.exr");
+        let original = image(
+            3,
+            2,
+            &[
+                [0.0, -0.0, 1.0],
+                [0.1, 0.2, 0.3],
+                [1e-40, f32::MIN_POSITIVE, f32::MAX],
+                [-1.5, 12345.678, f32::INFINITY],
+                [std::f32::consts::PI, 1.0 / 3.0, 7e-8],
+                [65504.0, 65505.0, 1e30],
+            ],
+        );
+        write_exr(&original, &path).unwrap();
+        let back = read_exr(&path).unwrap();
+        assert_eq!((back.width, back.height), (3, 2));
+        assert_eq!(bits(&back), bits(&original));
+        // Atomic write: only the final file is left.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn exr_is_written_with_zip_compression() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        write_exr(&Image::new(4, 3), &path).unwrap();
+        let meta = exr::meta::MetaData::read_from_file(&path, false).unwrap();
+        assert_eq!(meta.headers[0].compression, exr::compression::Compression::ZIP16);
+    }
+
+    #[test]
+    fn reading_corrupt_or_missing_exr_is_an_error_naming_the_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let corrupt = dir.path().join("corrupt.exr");
+        std::fs::write(&corrupt, b"this is not an OpenEXR file").unwrap();
+        let msg = read_exr(&corrupt).unwrap_err().message().to_string();
+        assert!(msg.contains(&corrupt.display().to_string()), "{msg}");
+        assert!(!msg.contains('\n'));
+
+        // A valid header followed by truncated pixel data.
+        let truncated = dir.path().join("truncated.exr");
+        write_exr(&Image::new(64, 64), &truncated).unwrap();
+        let bytes = std::fs::read(&truncated).unwrap();
+        std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+        let msg = read_exr(&truncated).unwrap_err().message().to_string();
+        assert!(msg.contains(&truncated.display().to_string()), "{msg}");
+
+        let missing = dir.path().join("missing.exr");
+        let msg = read_exr(&missing).unwrap_err().message().to_string();
+        assert!(msg.contains(&missing.display().to_string()), "{msg}");
+    }
+
+    #[test]
+    fn png_decodes_to_expected_srgb_values() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("preview.png");
+        // 18 % grey encodes to 118, 0.5 to 188, 0.001 (linear segment) to 3; out of range
+        // and NaN clamp.
+        let im = image(
+            3,
+            2,
+            &[
+                [0.0, 1.0, 0.5],
+                [0.18, 0.001, 2.0],
+                [-1.0, f32::NAN, f32::INFINITY],
+                [0.25, 0.09, 0.5],
+                [0.0; 3],
+                [1.0; 3],
+            ],
+        );
+        write_png(&im, &path, 0.0).unwrap();
+        let png = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(png.dimensions(), (3, 2));
+        assert_eq!(png.get_pixel(0, 0).0, [0, 255, 188]);
+        assert_eq!(png.get_pixel(1, 0).0, [118, 3, 255]);
+        assert_eq!(png.get_pixel(2, 0).0, [0, 0, 255]);
+
+        // +1 stop doubles: 0.25 -> 0.5, 0.09 -> 0.18.
+        write_png(&im, &path, 1.0).unwrap();
+        let png = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(png.get_pixel(0, 1).0, [188, 118, 255]);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn srgb_encoding_is_continuous_at_the_linear_segment() {
+        let knee = 0.003_130_8f32;
+        let below = srgb_encode(knee);
+        let above = srgb_encode(knee * (1.0 + 1e-6));
+        assert!((above - below).abs() < 1e-5, "{below} vs {above}");
+        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-6);
+        assert_eq!(srgb8(1.0), 255);
+    }
+
+    #[test]
+    fn viridis_endpoints_and_midpoint_are_the_stops() {
+        assert_eq!(viridis(0.0), [0x44, 0x01, 0x54]);
+        assert_eq!(viridis(0.5), [0x21, 0x90, 0x8c]);
+        assert_eq!(viridis(1.0), [0xfd, 0xe7, 0x25]);
+        assert_eq!(viridis(-3.0), viridis(0.0));
+        assert_eq!(viridis(7.0), viridis(1.0));
+    }
+
+    #[test]
+    fn error_map_scale_is_logarithmic_from_a_thousandth_to_ten() {
+        assert_eq!(error_map_colour(0.0), viridis(0.0));
+        assert_eq!(error_map_colour(ERROR_MAP_MIN), viridis(0.0));
+        // One decade is a quarter of the colormap: 10 % is its middle.
+        assert_eq!(error_map_colour(0.1), viridis(0.5));
+        assert_eq!(error_map_colour(0.01), viridis(0.25));
+        assert_eq!(error_map_colour(ERROR_MAP_MAX), viridis(1.0));
+        assert_eq!(error_map_colour(f64::INFINITY), viridis(1.0));
+        assert_eq!(error_map_colour(f64::NAN), ERROR_MAP_NAN_RGB);
+    }
+
+    #[test]
+    fn error_png_colours_exact_firefly_and_nan_pixels() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("error.png");
+        let reference = image(3, 1, &[[1.0; 3], [1.0; 3], [1.0; 3]]);
+        let im = image(3, 1, &[[1.0; 3], [1000.0; 3], [f32::NAN; 3]]);
+        write_error_png(&im, &reference, &path).unwrap();
+        let png = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(png.dimensions(), (3, 1));
+        assert_eq!(png.get_pixel(0, 0).0, viridis(0.0));
+        assert_eq!(png.get_pixel(1, 0).0, viridis(1.0));
+        assert_eq!(png.get_pixel(2, 0).0, ERROR_MAP_NAN_RGB);
+
+        let e = relative_error_per_pixel(&image(1, 1, &[[1.1, 1.1, 1.1]]), &image(1, 1, &[[1.0; 3]])).unwrap();
+        assert!((e[0] - 0.1 / 1.001f64.sqrt()).abs() < 1e-6);
+        assert!(write_error_png(&Image::new(2, 1), &Image::new(1, 2), &path).is_err());
+    }
+
+    #[test]
+    fn image_strip_places_images_side_by_side_with_black_gaps() {
+        let a = image(2, 1, &[[1.0; 3], [2.0; 3]]);
+        let b = image(1, 2, &[[3.0; 3], [4.0; 3]]);
+        let strip = image_strip(&[&a, &b], 1);
+        assert_eq!((strip.width, strip.height), (4, 2));
+        let row = |y| (0..4).map(|x| strip.get(x, y).x).collect::<Vec<_>>();
+        assert_eq!(row(0), [1.0, 2.0, 0.0, 3.0]);
+        assert_eq!(row(1), [0.0, 0.0, 0.0, 4.0]);
+        assert_eq!(image_strip(&[], 5), Image::new(0, 0));
     }
 }

@@ -22,6 +22,7 @@ pub mod film;
 pub mod geometry;
 pub mod light;
 pub mod metrics;
+pub mod perf;
 pub mod report;
 pub mod sampling;
 pub mod scene;

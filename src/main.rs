@@ -1,1 +1,193 @@
-fn main() {}
+//! `bench`: the command line of photon-bench. Parsing and dispatch only; the work lives in the
+//! library. Every failure prints one line `error: …` and exits with status 2.
+
+use clap::{Parser, Subcommand};
+use photon_bench::error::{Error, Result};
+use photon_bench::experiment::{self, Experiment, reference};
+use photon_bench::scene::load_scene;
+use photon_bench::strategy::path::{BsdfSampling, Direct, PathParams};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "bench",
+    version,
+    about = "Benchmark Monte Carlo light-transport strategies against reference images"
+)]
+struct Cli {
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(short = 'j', long, global = true)]
+    threads: Option<usize>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run an experiment file: every scene × strategy × seed × spp, compared with references.
+    Run {
+        /// The experiment file, e.g. experiments/cornell.toml.
+        experiment: PathBuf,
+    },
+    /// Render a converged reference image of a scene with `path` into references/.
+    Reference {
+        /// The scene file, e.g. scenes/cornell-empty.toml.
+        scene: PathBuf,
+        /// Samples per pixel.
+        #[arg(long)]
+        spp: u32,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Output directory.
+        #[arg(long, default_value = "references")]
+        out: PathBuf,
+        #[arg(long, default_value_t = PathParams::default().max_depth)]
+        max_depth: u32,
+        #[arg(long, default_value_t = PathParams::default().rr_depth)]
+        rr_depth: u32,
+        /// mis | nee | bsdf
+        #[arg(long, default_value = "mis")]
+        direct: String,
+        /// importance | uniform (uniform: no importance sampling, as Jensen 1995's reference)
+        #[arg(long, default_value = "importance")]
+        bsdf_sampling: String,
+    },
+    /// Measure throughput of `path` (paths/s, rays/s, raw BVH closest-hit rays/s) on a scene.
+    Perf {
+        /// The scene (default: Mitsuba 3's Cornell box at 256×256, the peer's benchmark scene).
+        #[arg(long, default_value = "scenes/cornell-box.toml")]
+        scene: PathBuf,
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Scattering events; 4 equals Mitsuba's max_depth = 5.
+        #[arg(long, default_value_t = 4)]
+        max_depth: u32,
+        /// Also append the figures to this CSV file.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
+    /// List the strategies with their parameters and defaults, and the shipped scenes.
+    List,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    if let Some(n) = cli.threads {
+        if n == 0 || n > 4096 {
+            return Err(Error::new(format!("--threads: expected 1..=4096, got {n}")));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| Error::new(e.to_string()))?;
+    }
+    match cli.command {
+        Command::Run { experiment } => {
+            let exp = Experiment::load(&experiment)?;
+            let dir = experiment::run(&exp)?;
+            println!("{}", dir.display());
+            Ok(())
+        }
+        Command::Reference {
+            scene,
+            spp,
+            seed,
+            out,
+            max_depth,
+            rr_depth,
+            direct,
+            bsdf_sampling,
+        } => {
+            if spp == 0 || spp > 1 << 24 {
+                return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 24)));
+            }
+            let params = PathParams {
+                max_depth,
+                rr_depth,
+                direct: parse_enum::<Direct>("--direct", &direct)?,
+                bsdf_sampling: parse_enum::<BsdfSampling>("--bsdf-sampling", &bsdf_sampling)?,
+            };
+            let scene = load_scene(&scene)?;
+            let bar = indicatif::ProgressBar::new(spp as u64);
+            let exr = reference::make(&scene, &out, spp, seed, params, |done| bar.set_position(done as u64))?;
+            bar.finish_and_clear();
+            println!("{}", exr.display());
+            Ok(())
+        }
+        Command::Perf {
+            scene,
+            spp,
+            max_depth,
+            csv,
+        } => {
+            if spp == 0 || spp > 1 << 16 {
+                return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 16)));
+            }
+            let scene = load_scene(&scene)?;
+            // No Russian roulette, like Mitsuba's path integrator below its rr_depth.
+            let params = PathParams {
+                max_depth,
+                rr_depth: max_depth,
+                ..PathParams::default()
+            };
+            let r = photon_bench::perf::measure_path(&scene, &params, spp);
+            println!(
+                "{} {}x{} spp {} max_depth {} on {} threads ({}), git {}",
+                r.scene, r.width, r.height, r.spp, r.max_depth, r.threads, r.cpu, r.git_revision
+            );
+            println!("  paths/s            {:>12.0}", r.paths_per_s);
+            println!(
+                "  rays/s             {:>12.0}  ({} closest + {} shadow)",
+                r.rays_per_s, r.closest_rays, r.shadow_rays
+            );
+            println!(
+                "  raw closest-hit/s  {:>12.0}  (BVH only, same rays)",
+                r.raw_closest_rays_per_s
+            );
+            if let Some(path) = csv {
+                photon_bench::perf::append_csv(&r, &path)?;
+            }
+            Ok(())
+        }
+        Command::List => {
+            println!("strategies:");
+            for info in photon_bench::strategy::describe() {
+                println!("  {}: {}", info.kind, info.summary);
+                for (k, v) in info.defaults {
+                    println!("    {k} = {v}");
+                }
+            }
+            println!("scenes (scenes/*.toml):");
+            let mut names: Vec<String> = std::fs::read_dir("scenes")
+                .map(|d| {
+                    d.filter_map(|e| e.ok())
+                        .map(|e| e.path())
+                        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+                        .map(|p| p.display().to_string())
+                        .collect()
+                })
+                .unwrap_or_default();
+            names.sort();
+            for n in names {
+                println!("  {n}");
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Parses a snake_case enum value the way experiment files spell it.
+fn parse_enum<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -> Result<T> {
+    T::deserialize(toml::Value::String(value.to_string())).map_err(|e| Error::new(format!("{flag}: {}", e.message())))
+}

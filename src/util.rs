@@ -22,9 +22,7 @@ pub fn content_hash(parts: &[&[u8]]) -> String {
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and
 /// synced, then renamed over the target. A reader never sees a partial file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic_with(path, |tmp| {
-        std::fs::write(tmp, bytes).context(tmp.display())
-    })
+    write_atomic_with(path, |tmp| std::fs::write(tmp, bytes).context(tmp.display()))
 }
 
 /// Runs `write` on a temporary path beside `path`, then renames it into place.

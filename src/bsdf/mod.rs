@@ -69,13 +69,7 @@ impl Bsdf {
 
     /// Samples `wi` given `wo`; `u` drives the direction and `u_lobe` the choice among lobes.
     #[inline]
-    pub fn sample(
-        &self,
-        wo: Vec3,
-        u: Vec2,
-        u_lobe: f32,
-        mode: TransportMode,
-    ) -> Option<BsdfSample> {
+    pub fn sample(&self, wo: Vec3, u: Vec2, u_lobe: f32, mode: TransportMode) -> Option<BsdfSample> {
         let _ = (u_lobe, mode);
         match self {
             Bsdf::Lambertian(b) => b.sample(wo, u),
@@ -85,6 +79,13 @@ impl Bsdf {
     pub fn kind(&self) -> SurfaceKind {
         match self {
             Bsdf::Lambertian(_) => SurfaceKind::Diffuse,
+        }
+    }
+
+    /// True when the model scatters light to the side opposite `wo` (transmission).
+    pub fn is_transmissive(&self) -> bool {
+        match self {
+            Bsdf::Lambertian(_) => false,
         }
     }
 

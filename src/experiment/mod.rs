@@ -1,1 +1,8 @@
+//! Experiments: the serde model of `experiments/*.toml`, references, and the runner.
 
+pub mod config;
+pub mod reference;
+pub mod run;
+
+pub use config::Experiment;
+pub use run::run;

@@ -37,9 +37,7 @@ impl Primitive {
     pub fn aabb_min_max(&self) -> (Vec3, Vec3) {
         match *self {
             Primitive::Triangle([a, b, c]) => (a.min(b).min(c), a.max(b).max(c)),
-            Primitive::Sphere { center, radius } => {
-                (center - Vec3::splat(radius), center + Vec3::splat(radius))
-            }
+            Primitive::Sphere { center, radius } => (center - Vec3::splat(radius), center + Vec3::splat(radius)),
         }
     }
 
@@ -73,14 +71,7 @@ impl Primitive {
 
 /// Möller–Trumbore, two-sided, in f32.
 #[inline]
-fn intersect_triangle(
-    o: Vec3,
-    d: Vec3,
-    t_max: f32,
-    v0: Vec3,
-    v1: Vec3,
-    v2: Vec3,
-) -> Option<(f32, Vec2)> {
+fn intersect_triangle(o: Vec3, d: Vec3, t_max: f32, v0: Vec3, v1: Vec3, v2: Vec3) -> Option<(f32, Vec2)> {
     let e1 = v1 - v0;
     let e2 = v2 - v0;
     let pvec = d.cross(e2);
@@ -162,11 +153,7 @@ impl Accel {
                 Bounds(Aabb::new(Vec3A::from(lo - pad), Vec3A::from(hi + pad)))
             })
             .collect();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(
-            &bounds,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
         let ids = bvh.primitive_indices.clone();
         let prims = ids.iter().map(|&i| primitives[i as usize]).collect();
         Self { bvh, prims, ids }
@@ -183,12 +170,7 @@ impl Accel {
     fn obvhs_ray(ray: &Ray) -> obvhs::ray::Ray {
         // Adding +0 turns −0 components into +0: obvhs picks slab order from `d < 0` but the
         // inverse from the sign bit, so a −0 component would invert that slab and miss.
-        obvhs::ray::Ray::new(
-            Vec3A::from(ray.o),
-            Vec3A::from(ray.d) + Vec3A::ZERO,
-            0.0,
-            ray.t_max,
-        )
+        obvhs::ray::Ray::new(Vec3A::from(ray.o), Vec3A::from(ray.d) + Vec3A::ZERO, 0.0, ray.t_max)
     }
 
     /// Closest hit along `ray` within (0, t_max).
@@ -199,17 +181,15 @@ impl Accel {
         let mut hit = obvhs::ray::RayHit::none();
         let mut b = Vec2::ZERO;
         let (o, d) = (ray.o, ray.d);
-        let found = self
-            .bvh
-            .ray_traverse(Self::obvhs_ray(ray), &mut hit, |r, id| {
-                match self.prims[id].intersect(o, d, r.tmax) {
-                    Some((t, bary)) => {
-                        b = bary;
-                        t
-                    }
-                    None => f32::INFINITY,
+        let found = self.bvh.ray_traverse(Self::obvhs_ray(ray), &mut hit, |r, id| {
+            match self.prims[id].intersect(o, d, r.tmax) {
+                Some((t, bary)) => {
+                    b = bary;
+                    t
                 }
-            });
+                None => f32::INFINITY,
+            }
+        });
         // `b` holds the barycentrics of the last accepted (hence closest) candidate: the
         // closure only returns t < tmax, and obvhs shrinks tmax on every accepted hit.
         found.then(|| Hit {
@@ -226,9 +206,7 @@ impl Accel {
         }
         let (o, d) = (ray.o, ray.d);
         self.bvh.ray_traverse_miss(Self::obvhs_ray(ray), |r, id| {
-            self.prims[id]
-                .intersect(o, d, r.tmax)
-                .map_or(f32::INFINITY, |(t, _)| t)
+            self.prims[id].intersect(o, d, r.tmax).map_or(f32::INFINITY, |(t, _)| t)
         })
     }
 }
@@ -241,10 +219,10 @@ mod tests {
     fn brute_force(prims: &[Primitive], ray: &Ray) -> Option<(u32, f32)> {
         let mut best: Option<(u32, f32)> = None;
         for (i, p) in prims.iter().enumerate() {
-            if let Some((t, _)) = p.intersect(ray.o, ray.d, ray.t_max) {
-                if best.is_none_or(|(_, bt)| t < bt) {
-                    best = Some((i as u32, t));
-                }
+            if let Some((t, _)) = p.intersect(ray.o, ray.d, ray.t_max)
+                && best.is_none_or(|(_, bt)| t < bt)
+            {
+                best = Some((i as u32, t));
             }
         }
         best
@@ -257,11 +235,7 @@ mod tests {
         for _ in 0..300 {
             let c = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
             let e = |r: &mut Rng| Vec3::new(r.uniform(), r.uniform(), r.uniform()) * 0.4 - 0.2;
-            prims.push(Primitive::Triangle([
-                c + e(&mut rng),
-                c + e(&mut rng),
-                c + e(&mut rng),
-            ]));
+            prims.push(Primitive::Triangle([c + e(&mut rng), c + e(&mut rng), c + e(&mut rng)]));
         }
         for _ in 0..40 {
             let c = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;

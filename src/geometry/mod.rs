@@ -53,15 +53,11 @@ impl Frame {
     pub fn from_normal_tangent(n: Vec3, tangent: Vec3) -> Self {
         let s = tangent - n * n.dot(tangent);
         let len = s.length();
-        if !(len > 1e-6) {
+        if len.is_nan() || len <= 1e-6 {
             return Self::from_normal(n);
         }
         let s = s / len;
-        Self {
-            s,
-            t: n.cross(s),
-            n,
-        }
+        Self { s, t: n.cross(s), n }
     }
 
     #[inline]
@@ -91,23 +87,11 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
         let bits = p.to_bits() as i32;
         f32::from_bits((bits + if p < 0.0 { -o } else { o }) as u32)
     };
-    let p_i = Vec3::new(
-        offset(p.x, of_i.x),
-        offset(p.y, of_i.y),
-        offset(p.z, of_i.z),
-    );
+    let p_i = Vec3::new(offset(p.x, of_i.x), offset(p.y, of_i.y), offset(p.z, of_i.z));
     let pick = |p: f32, pi: f32, n: f32| {
-        if p.abs() < ORIGIN {
-            p + FLOAT_SCALE * n
-        } else {
-            pi
-        }
+        if p.abs() < ORIGIN { p + FLOAT_SCALE * n } else { pi }
     };
-    Vec3::new(
-        pick(p.x, p_i.x, n.x),
-        pick(p.y, p_i.y, n.y),
-        pick(p.z, p_i.z, n.z),
-    )
+    Vec3::new(pick(p.x, p_i.x, n.x), pick(p.y, p_i.y, n.y), pick(p.z, p_i.z, n.z))
 }
 
 /// A ray leaving surface point `p` (geometric normal `ng`) in unit direction `d`.
@@ -153,9 +137,7 @@ mod tests {
         ] {
             let f = Frame::from_normal(n);
             assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
-            assert!(
-                f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5
-            );
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5);
             assert!((f.s.cross(f.t) - n).length() < 1e-5, "right-handed");
             let v = Vec3::new(0.2, -0.7, 0.4);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);

@@ -1,1 +1,8 @@
+//! Reporting: turns result rows and images into files a researcher reads: the CSV, plots and
+//! the run summary. Like [`crate::metrics`], it never sees a scene.
 
+pub mod convergence;
+pub mod plot;
+pub mod rows;
+
+pub use convergence::{write_plots, write_summary};

@@ -113,10 +113,7 @@ impl Scene {
                 }
             }
         }
-        let weights: Vec<f32> = lights
-            .iter()
-            .map(|l| luminance(l.power()).max(0.0))
-            .collect();
+        let weights: Vec<f32> = lights.iter().map(|l| luminance(l.power()).max(0.0)).collect();
         let Some(light_selection) = Distribution1D::new(&weights) else {
             crate::bail!(
                 "{}: the scene has no light with positive power (add an `emission` to a shape)",

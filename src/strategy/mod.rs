@@ -1,1 +1,109 @@
+//! Light-transport strategies behind one small trait. Each strategy lives in its own file,
+//! whose name matches its `kind` in experiment files and its label in results.
+//!
+//! A strategy first *prepares* (photon tracing, kd-tree build, Markov chains …: timed phase by
+//! phase, apart from rendering), then renders *passes*: a pass adds the samples with indices
+//! `samples` to every pixel. Because every sample draws from its own stream, seeded by
+//! (seed, pixel, sample index) and the film adds each pixel's samples in order, rendering
+//! 0..64 at once or as 0..16, 16..64 gives the bit-identical image, on any number of threads.
 
+pub mod path;
+
+pub use path::Path;
+
+use crate::error::{Error, Result};
+use crate::film::Film;
+use crate::geometry::Ray;
+use crate::sampling::Rng;
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// Wall-clock time of one named preparation phase.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Phase {
+    pub name: &'static str,
+    pub seconds: f64,
+}
+
+/// A light-transport algorithm under test.
+pub trait Strategy: Send + Sync {
+    /// The `kind` of the strategy, as in experiment files.
+    fn kind(&self) -> &'static str;
+
+    /// Every parameter with its value, in a fixed order (recorded with every result row).
+    fn params(&self) -> Vec<(&'static str, String)>;
+
+    /// Work done once per scene and seed before any sample is taken.
+    fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
+        let _ = (scene, seed);
+        Ok(Vec::new())
+    }
+
+    /// Adds samples `samples` of every pixel to `film`.
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film);
+}
+
+/// Stream purposes, so that different uses of one seed never share random numbers.
+pub mod stream {
+    pub const CAMERA_PATH: u64 = 1;
+}
+
+/// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel
+/// over rows. Each (pixel, sample) draws from its own stream, so the result is independent of
+/// the thread count and of how the sample range is split into passes.
+pub fn render_pixels<F>(scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film, radiance: F)
+where
+    F: Fn(&Ray, &mut Rng) -> Vec3 + Sync,
+{
+    let cam = &scene.camera;
+    let width = cam.width as usize;
+    film.rows_mut().for_each(|(y, row)| {
+        for (x, acc) in row.iter_mut().enumerate() {
+            let pixel = (y * width + x) as u64;
+            for s in samples.clone() {
+                let mut rng = Rng::for_task(seed, [stream::CAMERA_PATH, pixel, s as u64]);
+                let raster = Vec2::new(x as f32, y as f32) + rng.uniform2();
+                let ray = cam.generate_ray(raster);
+                acc.add(radiance(&ray, &mut rng));
+            }
+        }
+    });
+}
+
+/// A parsed strategy description from an experiment file: its kind and the parameter table
+/// (without `kind` and `label`).
+pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
+    match kind {
+        "path" => Ok(Box::new(Path::new(parse_params::<path::PathParams>(params)?))),
+        other => Err(Error::new(format!(
+            "unknown strategy kind `{other}`; expected one of: {}",
+            KINDS.join(", ")
+        ))),
+    }
+}
+
+/// Every strategy kind, in the order `bench list` shows them.
+pub const KINDS: &[&str] = &["path"];
+
+/// A strategy kind as `bench list` shows it.
+pub struct KindInfo {
+    pub kind: &'static str,
+    pub summary: &'static str,
+    /// Parameters with their default values.
+    pub defaults: Vec<(&'static str, String)>,
+}
+
+/// Parameters and defaults of every kind, for `bench list`.
+pub fn describe() -> Vec<KindInfo> {
+    vec![KindInfo {
+        kind: "path",
+        summary: path::SUMMARY,
+        defaults: Path::new(path::PathParams::default()).params(),
+    }]
+}
+
+fn parse_params<T: serde::de::DeserializeOwned>(params: toml::Table) -> Result<T> {
+    T::deserialize(toml::Value::Table(params)).map_err(|e| Error::new(e.message().to_string()))
+}

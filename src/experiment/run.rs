@@ -1,0 +1,211 @@
+//! Runs an experiment: every scene × strategy × seed, rendered progressively through the spp
+//! checkpoints, each checkpoint compared with the scene's reference.
+//!
+//! Everything that can be refused (the experiment file, scenes, references, strategy
+//! parameters) is checked before anything is written. A run renders into a hidden
+//! `<output>/<name>/.<run-id>.partial/` directory that is renamed to `<run-id>/` only when
+//! complete, so `results/` never shows half a run, and a new run never overwrites an old one.
+
+use super::config::Experiment;
+use super::reference::{self, Reference};
+use crate::error::{Context, Result};
+use crate::film::{Film, write_exr, write_png};
+use crate::metrics;
+use crate::report::rows::{Row, write_csv};
+use crate::scene::{Scene, load_scene};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// A scene with its reference, loaded and checked.
+struct Prepared {
+    scene: Scene,
+    reference: Reference,
+}
+
+/// Runs `exp` and returns the directory holding its results.
+pub fn run(exp: &Experiment) -> Result<PathBuf> {
+    // Refuse bad input before anything is written.
+    let mut prepared = Vec::new();
+    for path in &exp.scenes {
+        let scene = load_scene(path)?;
+        let reference = reference::load(&exp.references, &scene)?;
+        prepared.push(Prepared { scene, reference });
+    }
+
+    let base = exp.output.join(&exp.name);
+    let run_id = new_run_id(&base);
+    let partial = base.join(format!(".{run_id}.partial"));
+    let final_dir = base.join(&run_id);
+    std::fs::create_dir_all(partial.join("images")).context(partial.display())?;
+    let result = run_into(exp, &prepared, &run_id, &partial)
+        .and_then(|()| std::fs::rename(&partial, &final_dir).context(final_dir.display()));
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&partial);
+    }
+    result.map(|()| final_dir)
+}
+
+/// A run id that sorts by time and never collides with an earlier run in `base`.
+fn new_run_id(base: &Path) -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
+    let stamp = utc_stamp(secs);
+    let mut id = stamp.clone();
+    let mut n = 2;
+    while base.join(&id).exists() || base.join(format!(".{id}.partial")).exists() {
+        id = format!("{stamp}-{n}");
+        n += 1;
+    }
+    id
+}
+
+/// `YYYY-MM-DDTHH-MM-SSZ` for seconds since the Unix epoch (civil-from-days, Hinnant 2013).
+fn utc_stamp(secs: u64) -> String {
+    let days = (secs / 86_400) as i64;
+    let rem = secs % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}-{:02}-{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -> Result<()> {
+    std::fs::write(dir.join("experiment.toml"), &exp.text).context(dir.display())?;
+    let cells = prepared.len() * exp.strategies.len() * exp.seeds.len();
+    let bar = ProgressBar::new(cells as u64).with_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let threads = rayon::current_num_threads();
+    let (git_revision, cpu) = (crate::util::git_revision(), crate::util::cpu_model());
+    let mut rows = Vec::new();
+    for p in prepared {
+        for spec in &exp.strategies {
+            for &seed in &exp.seeds {
+                bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
+                let mut strategy = spec.instantiate()?;
+                let params = strategy
+                    .params()
+                    .iter()
+                    .map(|(k, v)| format!("{k}={v}"))
+                    .collect::<Vec<_>>()
+                    .join(";");
+                let template = Row {
+                    experiment: exp.name.clone(),
+                    run_id: run_id.to_string(),
+                    scene: p.scene.name.clone(),
+                    scene_hash: p.scene.content_hash.clone(),
+                    reference_hash: p.reference.hash.clone(),
+                    reference_spp: p.reference.info.spp,
+                    strategy: spec.label.clone(),
+                    kind: strategy.kind().to_string(),
+                    params,
+                    seed,
+                    spp: 0,
+                    width: p.scene.camera.width,
+                    height: p.scene.camera.height,
+                    threads,
+                    git_revision: git_revision.clone(),
+                    cpu: cpu.clone(),
+                    prep_s: 0.0,
+                    render_s: 0.0,
+                    total_s: 0.0,
+                    phases: String::new(),
+                    non_finite: 0,
+                    mse: 0.0,
+                    rmse: 0.0,
+                    rel_mse: 0.0,
+                    mse_trimmed: 0.0,
+                    rel_mse_trimmed: 0.0,
+                    rms_rel_lum: 0.0,
+                    rms_rel_lum_excluded: 0,
+                    efficiency: 0.0,
+                    mean_r: 0.0,
+                    mean_g: 0.0,
+                    mean_b: 0.0,
+                    image: String::new(),
+                };
+
+                let start = Instant::now();
+                let phases = strategy.prepare(&p.scene, seed)?;
+                let prep_s = start.elapsed().as_secs_f64();
+                let phases = phases
+                    .iter()
+                    .map(|ph| format!("{}={:.6}", ph.name, ph.seconds))
+                    .collect::<Vec<_>>()
+                    .join(";");
+
+                let mut film = Film::new(p.scene.camera.width, p.scene.camera.height);
+                let mut render_s = 0.0;
+                let mut done = 0u32;
+                for &spp in &exp.spp {
+                    let t = Instant::now();
+                    strategy.render_pass(&p.scene, seed, done..spp, &mut film);
+                    render_s += t.elapsed().as_secs_f64();
+                    done = spp;
+
+                    let image = film.image();
+                    let m = metrics::compare(&image, &p.reference.image).map_err(|e| e.context(&p.scene.name))?;
+                    let stem = format!("{}_{}_seed{seed}_spp{spp}", p.scene.name, spec.label);
+                    let exr = PathBuf::from("images").join(format!("{stem}.exr"));
+                    write_exr(&image, &dir.join(&exr))?;
+                    write_png(&image, &dir.join(exr.with_extension("png")), 0.0)?;
+                    let mean = image.mean();
+                    let total_s = prep_s + render_s;
+                    rows.push(Row {
+                        spp,
+                        prep_s,
+                        render_s,
+                        total_s,
+                        phases: phases.clone(),
+                        non_finite: film.non_finite(),
+                        mse: m.mse,
+                        rmse: m.rmse,
+                        rel_mse: m.rel_mse,
+                        mse_trimmed: m.mse_trimmed,
+                        rel_mse_trimmed: m.rel_mse_trimmed,
+                        rms_rel_lum: m.rms_rel_lum,
+                        rms_rel_lum_excluded: m.rms_rel_lum_excluded,
+                        efficiency: metrics::efficiency(m.mse, total_s),
+                        mean_r: mean.x as f64,
+                        mean_g: mean.y as f64,
+                        mean_b: mean.z as f64,
+                        image: exr.display().to_string(),
+                        ..template.clone()
+                    });
+                }
+                bar.inc(1);
+            }
+        }
+    }
+    bar.finish_and_clear();
+    write_csv(&rows, &dir.join("metrics.csv"))?;
+    crate::report::write_plots(&rows, dir)?;
+    crate::report::write_summary(exp, &rows, dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::utc_stamp;
+
+    #[test]
+    fn utc_stamp_matches_known_dates() {
+        assert_eq!(utc_stamp(0), "1970-01-01T00-00-00Z");
+        assert_eq!(utc_stamp(951_782_400), "2000-02-29T00-00-00Z");
+        assert_eq!(utc_stamp(1_795_305_600 + 3_661), "2026-11-22T01-01-01Z");
+    }
+}
