@@ -52,6 +52,9 @@ enum Command {
         /// importance | uniform (uniform: no importance sampling, as Jensen 1995's reference)
         #[arg(long, default_value = "importance")]
         bsdf_sampling: String,
+        /// Replace an existing reference.
+        #[arg(long)]
+        force: bool,
     },
     /// Measure throughput of `path` (paths/s, rays/s, raw BVH closest-hit rays/s) on a scene.
     Perf {
@@ -108,6 +111,7 @@ fn run(cli: Cli) -> Result<()> {
             rr_depth,
             direct,
             bsdf_sampling,
+            force,
         } => {
             if spp == 0 || spp > 1 << 24 {
                 return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 24)));
@@ -119,6 +123,13 @@ fn run(cli: Cli) -> Result<()> {
                 bsdf_sampling: parse_enum::<BsdfSampling>("--bsdf-sampling", &bsdf_sampling)?,
             };
             let scene = load_scene(&scene)?;
+            let existing = reference::exr_path(&out, &scene.name);
+            if existing.exists() && !force {
+                return Err(Error::new(format!(
+                    "{}: a reference exists already; pass --force to replace it",
+                    existing.display()
+                )));
+            }
             let bar = indicatif::ProgressBar::new(spp as u64);
             let exr = reference::make(&scene, &out, spp, seed, params, |done| bar.set_position(done as u64))?;
             bar.finish_and_clear();

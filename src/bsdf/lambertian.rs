@@ -1,4 +1,7 @@
-//! Lambertian (ideal diffuse) reflection, f_s = ρ/π, on the side of `wo`.
+//! Lambertian (ideal diffuse) reflection, f_s = ρ/π, on the side of `wo`; sampled
+//! cosine-weighted, pdf cos θi/π, so every sample's weight f_s |cos θi| / pdf is exactly ρ.
+//!
+//! Parameters: `reflectance` ρ in [0, 1] per channel.
 
 use super::BsdfSample;
 use crate::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};

@@ -111,3 +111,98 @@ pub fn pdf_a_to_w(pdf_a: f32, dist2: f32, cos_there: f32) -> f32 {
     let c = cos_there.abs();
     if c == 0.0 { 0.0 } else { pdf_a * dist2 / c }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+    use crate::sampling::chi2::{CHI2_ALPHA, DirectionTest, chi2_statistic, chi2_test_directions};
+
+    /// χ² of a warp of the unit square against its solid-angle pdf.
+    fn assert_warp_passes(name: &str, warp: impl Fn(Vec2) -> Vec3, pdf: impl Fn(Vec3) -> f32, seed: u64) {
+        let report = chi2_test_directions(
+            |rng: &mut Rng| {
+                let w = warp(rng.uniform2());
+                Some((w, pdf(w)))
+            },
+            &pdf,
+            DirectionTest {
+                seed,
+                ..DirectionTest::default()
+            },
+        );
+        assert!(report.passes(CHI2_ALPHA), "{name}: {report:?}");
+        assert!((report.pdf_integral - 1.0).abs() < 1e-4, "{name}: {report:?}");
+    }
+
+    #[test]
+    fn cosine_hemisphere_passes_chi2() {
+        assert_warp_passes("cosine", sample_cosine_hemisphere, cosine_hemisphere_pdf, 1);
+    }
+
+    #[test]
+    fn uniform_hemisphere_passes_chi2() {
+        assert_warp_passes("hemisphere", sample_uniform_hemisphere, uniform_hemisphere_pdf, 2);
+    }
+
+    #[test]
+    fn uniform_sphere_passes_chi2() {
+        assert_warp_passes("sphere", sample_uniform_sphere, |_| uniform_sphere_pdf(), 3);
+    }
+
+    #[test]
+    fn uniform_cone_passes_chi2() {
+        for (k, cos_theta_max) in [0.95f32, 0.6, -0.3].into_iter().enumerate() {
+            assert_warp_passes(
+                &format!("cone cos θmax = {cos_theta_max}"),
+                |u| sample_uniform_cone(u, cos_theta_max),
+                |w| uniform_cone_pdf(w, cos_theta_max),
+                10 + k as u64,
+            );
+        }
+    }
+
+    #[test]
+    fn chi2_rejects_cosine_samples_tested_against_the_uniform_pdf() {
+        let report = chi2_test_directions(
+            |rng: &mut Rng| {
+                let w = sample_cosine_hemisphere(rng.uniform2());
+                Some((w, uniform_hemisphere_pdf(w)))
+            },
+            uniform_hemisphere_pdf,
+            DirectionTest::default(),
+        );
+        assert_eq!(report.pdf_mismatches, 0);
+        assert!(report.chi2.p_value < 1e-12, "{report:?}");
+        assert!(!report.passes(CHI2_ALPHA));
+    }
+
+    #[test]
+    fn uniform_triangle_passes_chi2_on_congruent_sub_triangles() {
+        // Split the triangle b0, b1 ≥ 0, b0 + b1 ≤ 1 into k² congruent sub-triangles: grid cell
+        // (i, j) holds a lower one (frac sum < 1) and, when i + j ≤ k − 2, an upper one.
+        let k = 12;
+        let n = 120_000;
+        let mut counts = vec![0.0f64; k * k * 2];
+        let mut rng = Rng::for_task(4, [0, 0, 0]);
+        for _ in 0..n {
+            let b = sample_uniform_triangle(rng.uniform2());
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0, "{b}");
+            let (x, y) = (b.x * k as f32, b.y * k as f32);
+            let (i, j) = ((x as usize).min(k - 1), (y as usize).min(k - 1));
+            let upper = usize::from(x.fract() + y.fract() >= 1.0 && i + j + 2 <= k);
+            counts[(i * k + j) * 2 + upper] += 1.0;
+        }
+        let expected_per_cell = n as f64 / (k * k) as f64;
+        let expected: Vec<f64> = (0..k * k * 2)
+            .map(|c| {
+                let (i, j, upper) = (c / 2 / k, c / 2 % k, c % 2 == 1);
+                let exists = if upper { i + j + 2 <= k } else { i + j < k };
+                if exists { expected_per_cell } else { 0.0 }
+            })
+            .collect();
+        let chi2 = chi2_statistic(&counts, &expected, 5.0);
+        assert_eq!(chi2.dof, k * k - 1);
+        assert!(chi2.p_value > CHI2_ALPHA, "{chi2:?}");
+    }
+}

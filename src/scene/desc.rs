@@ -1,1 +1,491 @@
+//! The scene file format: `scenes/*.toml`, read by [`super::load_scene`].
+//!
+//! This module is the reference for the format. Every table rejects keys it does not know, so a
+//! misspelled parameter is an error, never a silent default. Lengths are in scene units (the
+//! shipped scenes use metres), angles in degrees, colours are linear RGB triples `[r, g, b]`.
+//!
+//! ```toml
+//! name = "cornell-empty"            # optional, non-empty; defaults to the file stem
+//!
+//! [camera]                          # a pinhole camera
+//! eye = [0.278, 0.273, -0.8]
+//! look_at = [0.278, 0.273, 0.0]     # must differ from `eye`
+//! up = [0, 1, 0]                    # optional, default [0, 1, 0]; not parallel to the view
+//! fov_y = 39.3077                   # full vertical field of view, degrees, in (0, 180)
+//! resolution = [80, 60]             # width, height: 1..=16384 each, at most 64 Mpixel
+//!
+//! # Materials are named tables; `type` picks the reflectance model.
+//! [materials.white]
+//! type = "diffuse"                  # Lambertian
+//! reflectance = [0.73, 0.73, 0.73]  # each channel in [0, 1]
+//! [materials.chrome]
+//! type = "mirror"                   # ideal specular reflection
+//! reflectance = [1, 1, 1]           # optional, default [1, 1, 1]; in [0, 1]
+//! [materials.glass]
+//! type = "dielectric"               # smooth glass: Fresnel-weighted reflection and refraction
+//! ior = 1.5                         # index of refraction inside / outside, > 0
+//! [materials.plastic]
+//! type = "phong"                    # energy-conserving modified Phong
+//! diffuse = [0.4, 0.4, 0.4]         # each in [0, 1] and diffuse + specular <= 1 per channel
+//! specular = [0.3, 0.3, 0.3]
+//! exponent = 50.0                   # in [0, 1e6]
+//! [materials.brushed]
+//! type = "ward"                     # anisotropic Ward
+//! diffuse = [0.1, 0.1, 0.1]         # as for phong: diffuse + specular <= 1 per channel
+//! specular = [0.5, 0.5, 0.5]
+//! alpha_x = 0.05                    # roughness along the tangent and bitangent, in (0, 1]
+//! alpha_y = 0.2
+//! [materials.paper]
+//! type = "diffuse_transmission"     # Lambertian reflection plus Lambertian transmission
+//! reflectance = [0.5, 0.5, 0.5]     # reflectance + transmittance <= 1 per channel
+//! transmittance = [0.3, 0.3, 0.3]
+//!
+//! # Shapes; every shape takes `material` (required), `transform` and `emission` (optional).
+//! [[shapes]]
+//! type = "quad"                     # a parallelogram, two triangles
+//! material = "white"
+//! corner = [0, 0, 0]                # points corner + s·edge_u + t·edge_v, s, t ∈ [0, 1];
+//! edge_u = [0, 0, 0.559]            # the front (normal) side is edge_u × edge_v
+//! edge_v = [0.556, 0, 0]
+//! [[shapes]]
+//! type = "quad"                     # the other form: an axis-aligned rectangle
+//! material = "white"
+//! center = [0.278, 0.5388, 0.2795]
+//! size = [0.13, 0.105]              # in-plane extents in x, y, z order: ±x [y, z], ±y [x, z],
+//!                                   # ±z [x, y]; each > 0
+//! facing = "+y"                     # normal axis: "+x" "-x" "+y" "-y" "+z" "-z"; default "+y"
+//! emission = { radiance = [17, 12, 4], two_sided = false }   # an area light; two_sided
+//!                                   # is optional, default false
+//! [[shapes]]
+//! type = "box"                      # 12 triangles, faces pointing outward
+//! material = "white"
+//! min = [-0.5, -0.5, -0.5]          # either min and max (each min < max) ...
+//! max = [0.5, 0.5, 0.5]
+//! # center = [0, 0, 0]; size = [1, 1, 1]   # ... or center and size (each > 0)
+//! transform = { scale = [0.16, 0.33, 0.16], rotate_y = 15.0, translate = [0.37, 0.165, 0.35] }
+//! [[shapes]]
+//! type = "sphere"
+//! material = "glass"
+//! center = [0.37, 0.1, 0.18]
+//! radius = 0.1                      # > 0; transforms must keep it a sphere (uniform scale)
+//! [[shapes]]
+//! type = "mesh"                     # Wavefront OBJ, triangulated; MTL materials are ignored
+//! material = "white"
+//! file = "meshes/bunny.obj"         # relative to this scene file
+//! transform = [{ matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] },
+//!              { rotate_x = -90 }, { translate = [0, 0.1, 0] }]
+//!
+//! # User paths for Metropolis photon sampling [Fan et al. 2005, §4.3] (optional).
+//! [[user_paths]]
+//! points = [[0.278, 0.5388, 0.28], [0.2, 0.2, 0.4], [0.1, 0.0, 0.3]]  # on a light, then surfaces
+//! cone_deg = 5.0                    # cone half-angle in (0, 90] degrees: one for every
+//!                                   # segment, or a list with one per segment
+//! ```
+//!
+//! **Transforms.** A `transform` is one step or a list of steps applied in list order. Within a
+//! step the parts apply in the fixed order `scale` (a number or `[sx, sy, sz]`, non-zero),
+//! `rotate_x`, `rotate_y`, `rotate_z` (degrees, right-handed about the world axes), `translate`;
+//! a step with `matrix` (4 rows of 4, row-major, acting on column vectors `p' = M p`, last row
+//! `[0, 0, 0, 1]`) must hold nothing else. A step list makes rotations about a pivot easy:
+//! `[{ translate = [-c] }, { rotate_y = 30 }, { translate = [c] }]`. Transforms that mirror
+//! (negative determinant) keep the front side of every quad, box and mesh triangle where it was
+//! meant to be; degenerate ones (determinant ≈ 0) are refused.
+//!
+//! **Meshes.** Faces are triangulated by tobj; OBJ vertex normals, when every vertex has one,
+//! become shading normals. Triangles whose area is zero to f32 precision are skipped and
+//! counted ([`super::load::LoadStats`]); a mesh with no triangle left is refused. The MTL files
+//! an OBJ names are read only for the content hash: the scene's `material` applies to the
+//! whole mesh, and a missing MTL is ignored.
+//!
+//! **Lights.** Any shape with an `emission` is an area light; each of its triangles (or the
+//! sphere) emits `radiance` (each channel in [0, 1e10]) from its front side, or from both
+//! sides with `two_sided = true`. A scene needs at least one light with positive power.
+//!
+//! **User paths.** At least two points; the first must lie on an emissive surface (within
+//! 1e-3 of the scene's bounding-box diagonal of one).
+//!
+//! **Materials** get indices in name order, whatever their order in the file; a shape naming
+//! an undefined material is an error, an unused material is not.
+//!
+//! **Limits.** Every coordinate, size and translation must be finite with magnitude <= 1e7, so
+//! that f32 geometry keeps a useful precision; the same holds after transforming.
+//!
+//! **Errors** are one line, `<file>: <field>: <what was expected>, got <value>`, with a line and
+//! column when the TOML layer found them; list indices in field paths count from 0
+//! (`shapes[0]` is the first `[[shapes]]`).
+//!
+//! Why two layers: these types mirror the file one to one (f64, as TOML stores numbers, so an
+//! error can quote the value as written); `load` validates them and builds the runtime
+//! [`super::Scene`].
+//!
+//! Internally tagged enums ([`MaterialDesc`], [`ShapeDesc`]) carry `deny_unknown_fields` on
+//! their inner structs: on the enum itself serde lets unknown keys through (serde issues #2123
+//! and #2294).
 
+use serde::Deserialize;
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// A point, vector or RGB triple as written in the file.
+pub type Triple = Fixed<f64, 3>;
+
+/// An array of exactly `N` values. serde's own arrays stop reading after `N` elements, and
+/// the toml deserializer does not complain about the rest, so `[1, 2, 3, 4]` would pass as a
+/// point; this type refuses it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fixed<T, const N: usize>(pub [T; N]);
+
+impl<T, const N: usize> std::ops::Deref for Fixed<T, N> {
+    type Target = [T; N];
+    fn deref(&self) -> &[T; N] {
+        &self.0
+    }
+}
+
+impl<T, const N: usize> From<[T; N]> for Fixed<T, N> {
+    fn from(a: [T; N]) -> Self {
+        Self(a)
+    }
+}
+
+/// The whole file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// Defaults to the file stem.
+    #[serde(default)]
+    pub name: Option<String>,
+    pub camera: CameraDesc,
+    /// Materials by name. A `BTreeMap` gives material indices in name order, independent of
+    /// the order in the file.
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialDesc>,
+    #[serde(default)]
+    pub shapes: Vec<ShapeDesc>,
+    #[serde(default)]
+    pub user_paths: Vec<UserPathDesc>,
+}
+
+/// A pinhole camera.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    pub eye: Triple,
+    pub look_at: Triple,
+    #[serde(default = "default_up")]
+    pub up: Triple,
+    /// Full vertical field of view in degrees, in (0, 180).
+    pub fov_y: f64,
+    /// `[width, height]` in pixels.
+    pub resolution: Fixed<u32, 2>,
+}
+
+fn default_up() -> Triple {
+    Fixed([0.0, 1.0, 0.0])
+}
+
+fn white() -> Triple {
+    Fixed([1.0, 1.0, 1.0])
+}
+
+/// A material; `type` selects the variant.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum MaterialDesc {
+    Diffuse(Diffuse),
+    Mirror(Mirror),
+    Dielectric(Dielectric),
+    Phong(Phong),
+    Ward(Ward),
+    DiffuseTransmission(DiffuseTransmission),
+}
+
+/// Lambertian reflection.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Diffuse {
+    pub reflectance: Triple,
+}
+
+/// Ideal specular reflection.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mirror {
+    #[serde(default = "white")]
+    pub reflectance: Triple,
+}
+
+/// A smooth dielectric interface (glass).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Dielectric {
+    /// Relative index of refraction (inside over outside).
+    pub ior: f64,
+}
+
+/// Energy-conserving modified Phong.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Phong {
+    pub diffuse: Triple,
+    pub specular: Triple,
+    pub exponent: f64,
+}
+
+/// Anisotropic Ward.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ward {
+    pub diffuse: Triple,
+    pub specular: Triple,
+    pub alpha_x: f64,
+    pub alpha_y: f64,
+}
+
+/// Lambertian reflection and Lambertian transmission.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiffuseTransmission {
+    pub reflectance: Triple,
+    pub transmittance: Triple,
+}
+
+/// A shape; `type` selects the variant.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ShapeDesc {
+    Quad(Quad),
+    Box(Cuboid),
+    Sphere(Sphere),
+    Mesh(Mesh),
+}
+
+/// A parallelogram: `corner`, `edge_u`, `edge_v`, or an axis-aligned rectangle: `center`,
+/// `size`, `facing`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Quad {
+    pub material: String,
+    pub corner: Option<Triple>,
+    pub edge_u: Option<Triple>,
+    pub edge_v: Option<Triple>,
+    pub center: Option<Triple>,
+    /// Extents along the two in-plane axes, in x, y, z order.
+    pub size: Option<Fixed<f64, 2>>,
+    /// The axis the front side faces: "+x", "-x", "+y", "-y", "+z" or "-z" (default "+y").
+    pub facing: Option<String>,
+    pub transform: Option<TransformDesc>,
+    pub emission: Option<EmissionDesc>,
+}
+
+/// An axis-aligned box (`type = "box"`; named `Cuboid` so as not to shadow `std`'s `Box`):
+/// `min`/`max` or `center`/`size`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cuboid {
+    pub material: String,
+    pub min: Option<Triple>,
+    pub max: Option<Triple>,
+    pub center: Option<Triple>,
+    pub size: Option<Triple>,
+    pub transform: Option<TransformDesc>,
+    pub emission: Option<EmissionDesc>,
+}
+
+/// An analytic sphere.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sphere {
+    pub material: String,
+    pub center: Triple,
+    pub radius: f64,
+    pub transform: Option<TransformDesc>,
+    pub emission: Option<EmissionDesc>,
+}
+
+/// A triangle mesh from a Wavefront OBJ file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mesh {
+    pub material: String,
+    /// Relative to the directory of the scene file.
+    pub file: String,
+    pub transform: Option<TransformDesc>,
+    pub emission: Option<EmissionDesc>,
+}
+
+impl ShapeDesc {
+    /// The type name as written in the file.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            ShapeDesc::Quad(_) => "quad",
+            ShapeDesc::Box(_) => "box",
+            ShapeDesc::Sphere(_) => "sphere",
+            ShapeDesc::Mesh(_) => "mesh",
+        }
+    }
+
+    /// The keys every shape has: material, transform, emission.
+    pub fn common(&self) -> (&str, Option<&TransformDesc>, Option<&EmissionDesc>) {
+        match self {
+            ShapeDesc::Quad(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
+            ShapeDesc::Box(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
+            ShapeDesc::Sphere(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
+            ShapeDesc::Mesh(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
+        }
+    }
+}
+
+/// Makes a shape an area light.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmissionDesc {
+    /// Emitted radiance, each channel >= 0.
+    pub radiance: Triple,
+    /// Emit from the back side too (default: front side only).
+    #[serde(default)]
+    pub two_sided: bool,
+}
+
+/// One transform step or a list of steps, applied in list order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TransformDesc(pub Vec<TransformStep>);
+
+/// One step: scale, then rotate about x, y, z, then translate; or a matrix on its own.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformStep {
+    pub scale: Option<Scale>,
+    pub rotate_x: Option<f64>,
+    pub rotate_y: Option<f64>,
+    pub rotate_z: Option<f64>,
+    pub translate: Option<Triple>,
+    /// Four rows of four, row-major; the last row must be `[0, 0, 0, 1]`.
+    pub matrix: Option<Fixed<Fixed<f64, 4>, 4>>,
+}
+
+/// A uniform (`scale = 2`) or per-axis (`scale = [1, 2, 1]`) scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scale {
+    Uniform(f64),
+    PerAxis(Triple),
+}
+
+/// A user path for Metropolis photon sampling.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UserPathDesc {
+    /// A point on a light, then surface points; at least two.
+    pub points: Vec<Triple>,
+    /// Cone half-angle β in degrees, in (0, 90]: one for all segments or one per segment.
+    pub cone_deg: ConeDeg,
+}
+
+/// One cone angle for every segment, or one per segment.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ConeDeg {
+    All(f64),
+    PerSegment(Vec<f64>),
+}
+
+// The three "this or a list" values below get hand-written visitors rather than
+// `#[serde(untagged)]`: an untagged enum buffers its input and answers every mistake with "data
+// did not match any variant", losing the position and the reason.
+
+impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Fixed<T, N> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<T, const N: usize>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for V<T, N> {
+            type Value = Fixed<T, N>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                write!(f, "an array of {N} elements")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Fixed<T, N>, A::Error> {
+                let mut items = Vec::with_capacity(N);
+                while let Some(x) = seq.next_element()? {
+                    if items.len() == N {
+                        return Err(de::Error::invalid_length(N + 1, &self));
+                    }
+                    items.push(x);
+                }
+                let len = items.len();
+                items
+                    .try_into()
+                    .map(Fixed)
+                    .map_err(|_| de::Error::invalid_length(len, &self))
+            }
+        }
+        d.deserialize_seq(V(std::marker::PhantomData))
+    }
+}
+
+impl<'de> Deserialize<'de> for TransformDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = TransformDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a transform table or a list of transform tables")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<TransformDesc, A::Error> {
+                let step = TransformStep::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(TransformDesc(vec![step]))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<TransformDesc, A::Error> {
+                let steps = Vec::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(TransformDesc(steps))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Visits a TOML number (integer or float) as f64.
+macro_rules! visit_numbers {
+    ($value:ty, $wrap:expr) => {
+        fn visit_f64<E: de::Error>(self, v: f64) -> Result<$value, E> {
+            Ok($wrap(v))
+        }
+        fn visit_i64<E: de::Error>(self, v: i64) -> Result<$value, E> {
+            Ok($wrap(v as f64))
+        }
+        fn visit_u64<E: de::Error>(self, v: u64) -> Result<$value, E> {
+            Ok($wrap(v as f64))
+        }
+    };
+}
+
+impl<'de> Deserialize<'de> for Scale {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Scale;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or an array of 3 numbers")
+            }
+            visit_numbers!(Scale, Scale::Uniform);
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Scale, A::Error> {
+                Triple::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(Scale::PerAxis)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl<'de> Deserialize<'de> for ConeDeg {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ConeDeg;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or an array of numbers")
+            }
+            visit_numbers!(ConeDeg, ConeDeg::All);
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<ConeDeg, A::Error> {
+                Vec::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(ConeDeg::PerSegment)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
