@@ -1,7 +1,7 @@
 //! Small shared utilities: content hashes, atomic file writes, provenance.
 
 use crate::error::{Context, Result};
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
 
 /// 64-bit FNV-1a over bytes, as 16 hex digits. Used to identify scene, reference and
 /// configuration content in result rows (not for security).
@@ -49,6 +49,26 @@ pub fn write_atomic_with(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -
     result
 }
 
+/// Joins `rel` to `base` and removes `.` and `name/..` pairs lexically, so that messages show
+/// `scenes/x.toml` rather than `experiments/../scenes/x.toml`. Absolute `rel` wins.
+pub fn join_clean(base: &Path, rel: &str) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in base.join(rel).components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(out.components().next_back(), Some(Component::Normal(_))) => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    if out.as_os_str().is_empty() {
+        PathBuf::from(".")
+    } else {
+        out
+    }
+}
+
 /// The git revision of the working tree the binary runs in (`git describe --always --dirty`),
 /// or "unknown" outside a repository.
 pub fn git_revision() -> String {
@@ -85,6 +105,18 @@ mod tests {
         assert_ne!(content_hash(&[b"ab", b"c"]), content_hash(&[b"a", b"bc"]));
         assert_eq!(content_hash(&[b"scene"]), content_hash(&[b"scene"]));
         assert_eq!(content_hash(&[b"x"]).len(), 16);
+    }
+
+    #[test]
+    fn join_clean_removes_dot_dot_lexically() {
+        assert_eq!(
+            join_clean(Path::new("experiments"), "../scenes/a.toml"),
+            Path::new("scenes/a.toml")
+        );
+        assert_eq!(join_clean(Path::new(""), "../a"), Path::new("../a"));
+        assert_eq!(join_clean(Path::new("x/y"), "./../../z"), Path::new("z"));
+        assert_eq!(join_clean(Path::new("x"), "/abs/b"), Path::new("/abs/b"));
+        assert_eq!(join_clean(Path::new("x"), ".."), Path::new("."));
     }
 
     #[test]

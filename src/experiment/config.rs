@@ -19,6 +19,7 @@
 
 use crate::error::{Error, Result};
 use crate::strategy::{self, Strategy};
+use crate::util::join_clean;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -141,11 +142,11 @@ impl Experiment {
             text,
             name,
             description: raw.description.unwrap_or_default(),
-            scenes: raw.scenes.iter().map(|s| dir.join(s)).collect(),
+            scenes: raw.scenes.iter().map(|s| join_clean(dir, s)).collect(),
             spp,
             seeds,
-            references: dir.join(raw.references.as_deref().unwrap_or("../references")),
-            output: dir.join(raw.output.as_deref().unwrap_or("../results")),
+            references: join_clean(dir, raw.references.as_deref().unwrap_or("../references")),
+            output: join_clean(dir, raw.output.as_deref().unwrap_or("../results")),
             strategies,
         })
     }
@@ -218,7 +219,7 @@ mod tests {
         assert_eq!(e.spp, vec![1, 4]);
         assert_eq!(e.seeds, vec![0, 1]);
         assert_eq!(e.strategies[0].label, "path");
-        assert_eq!(e.scenes[0], Path::new("experiments/../scenes/a.toml"));
+        assert_eq!(e.scenes[0], Path::new("scenes/a.toml"));
     }
 
     #[test]

@@ -1,0 +1,178 @@
+//! The `bench` binary end to end on a tiny scene: a reference, a run, its outputs; and the
+//! refusals — bad experiment files, unknown strategies, stale references — each a one-line
+//! error with exit status 2 that leaves nothing under the output directory.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bench(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_bench"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// A temporary project: `scenes/tiny.toml` (cornell-empty at 16 × 12) and an experiment.
+fn project() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    for sub in ["scenes", "experiments"] {
+        std::fs::create_dir_all(root.join(sub)).unwrap();
+    }
+    let scene = std::fs::read_to_string("scenes/cornell-empty.toml")
+        .unwrap()
+        .replace("resolution = [80, 60]", "resolution = [16, 12]");
+    std::fs::write(root.join("scenes/tiny.toml"), scene).unwrap();
+    std::fs::write(root.join("experiments/tiny.toml"), EXPERIMENT).unwrap();
+    dir
+}
+
+const EXPERIMENT: &str = r#"
+scenes = ["../scenes/tiny.toml"]
+spp = [1, 2]
+seeds = 2
+[[strategy]]
+kind = "path"
+[[strategy]]
+kind = "path"
+label = "uniform"
+bsdf_sampling = "uniform"
+"#;
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn assert_refused(o: &Output, expected: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "exit status; stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.starts_with("error: "), "{err}");
+    for e in expected {
+        assert!(err.contains(e), "expected `{e}` in `{err}`");
+    }
+}
+
+fn run_dirs(root: &Path) -> Vec<PathBuf> {
+    match std::fs::read_dir(root.join("results/tiny")) {
+        Ok(d) => d.map(|e| e.unwrap().path()).collect(),
+        Err(_) => Vec::new(),
+    }
+}
+
+#[test]
+fn reference_then_run_writes_a_complete_result_directory() {
+    let p = project();
+    let root = p.path();
+    let o = bench(root, &["reference", "scenes/tiny.toml", "--spp", "8"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(root.join("references/tiny.exr").exists() && root.join("references/tiny.json").exists());
+    // A second reference without --force would overwrite: refused.
+    assert_refused(
+        &bench(root, &["reference", "scenes/tiny.toml", "--spp", "8"]),
+        &["--force"],
+    );
+
+    let o = bench(root, &["--threads", "2", "run", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dirs = run_dirs(root);
+    assert_eq!(
+        dirs.len(),
+        1,
+        "exactly one run directory and no leftover partial: {dirs:?}"
+    );
+    let run = &dirs[0];
+    let rows = photon_bench::report::rows::read_csv(&run.join("metrics.csv")).unwrap();
+    assert_eq!(rows.len(), 2 * 2 * 2, "strategies × seeds × checkpoints");
+    for r in &rows {
+        assert_eq!(r.threads, 2);
+        assert!(r.mse.is_finite() && r.mse > 0.0);
+        assert!(r.params.contains("bsdf_sampling="));
+        assert!(run.join(&r.image).exists() && run.join(&r.image).with_extension("png").exists());
+    }
+    for f in [
+        "summary.md",
+        "experiment.toml",
+        "plots/tiny_mse_vs_spp.svg",
+        "plots/tiny_mse_vs_time.png",
+    ] {
+        assert!(run.join(f).exists(), "{f}");
+    }
+
+    // A second run never overwrites the first.
+    assert!(bench(root, &["run", "experiments/tiny.toml"]).status.success());
+    assert_eq!(run_dirs(root).len(), 2);
+}
+
+#[test]
+fn stale_reference_is_refused_with_the_command_that_regenerates_it() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "2"])
+            .status
+            .success()
+    );
+    let scene = std::fs::read_to_string(root.join("scenes/tiny.toml")).unwrap();
+    std::fs::write(
+        root.join("scenes/tiny.toml"),
+        scene.replace("[0.73, 0.73, 0.73]", "[0.7, 0.7, 0.7]"),
+    )
+    .unwrap();
+    assert_refused(
+        &bench(root, &["run", "experiments/tiny.toml"]),
+        &["references/tiny.exr", "bench reference scenes/tiny.toml --spp 2"],
+    );
+    assert!(run_dirs(root).is_empty(), "nothing written");
+}
+
+#[test]
+fn bad_input_is_refused_before_anything_is_written() {
+    let p = project();
+    let root = p.path();
+    assert_refused(
+        &bench(root, &["run", "experiments/tiny.toml"]),
+        &["reference missing", "bench reference scenes/tiny.toml"],
+    );
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "2"])
+            .status
+            .success()
+    );
+    let cases: [(&str, &[&str]); 5] = [
+        ("kind = \"path\"\n[[strategy]]", &["strategy[1]", "used twice"]),
+        (
+            "bsdf_sampling = \"uniform\"",
+            &["strategy[1] (path)", "unknown variant"],
+        ),
+        ("seeds = 2", &["experiments/tiny.toml"]),
+        ("spp = [1, 2]", &["spp"]),
+        ("scenes = [\"../scenes/tiny.toml\"]", &["scenes/missing.toml"]),
+    ];
+    let replacements = [
+        "kind = \"path\"\n[[strategy]]\nkind = \"path\"\n[[strategy]]",
+        "bsdf_sampling = \"unifrom\"",
+        "seeds = \"two\"",
+        "spp = [0]",
+        "scenes = [\"../scenes/missing.toml\"]",
+    ];
+    for ((needle, expected), replacement) in cases.iter().zip(replacements) {
+        std::fs::write(
+            root.join("experiments/tiny.toml"),
+            EXPERIMENT.replacen(needle, replacement, 1),
+        )
+        .unwrap();
+        assert_refused(&bench(root, &["run", "experiments/tiny.toml"]), expected);
+        assert!(run_dirs(root).is_empty(), "nothing written for {replacement}");
+    }
+    assert_refused(
+        &bench(root, &["run", "experiments/nope.toml"]),
+        &["experiments/nope.toml"],
+    );
+    assert_refused(
+        &bench(root, &["reference", "scenes/tiny.toml", "--spp", "0"]),
+        &["--spp"],
+    );
+    assert_refused(&bench(root, &["--threads", "0", "list"]), &["--threads"]);
+}
