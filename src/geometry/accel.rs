@@ -61,7 +61,7 @@ impl Primitive {
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, Vec2)> {
         match *self {
-            Primitive::Triangle([v0, v1, v2]) => intersect_triangle(o, d, t_max, v0, v1, v2),
+            Primitive::Triangle([v0, v1, v2]) => intersect_triangle(o, d, t_max, v0, v1 - v0, v2 - v0),
             Primitive::Sphere { center, radius } => {
                 intersect_sphere(o, d, t_max, center, radius).map(|t| (t, Vec2::ZERO))
             }
@@ -69,11 +69,9 @@ impl Primitive {
     }
 }
 
-/// Möller–Trumbore, two-sided, in f32.
-#[inline]
-fn intersect_triangle(o: Vec3, d: Vec3, t_max: f32, v0: Vec3, v1: Vec3, v2: Vec3) -> Option<(f32, Vec2)> {
-    let e1 = v1 - v0;
-    let e2 = v2 - v0;
+/// Möller–Trumbore, two-sided, in f32, on a triangle given by a vertex and its two edges.
+#[inline(always)]
+fn intersect_triangle(o: Vec3, d: Vec3, t_max: f32, v0: Vec3, e1: Vec3, e2: Vec3) -> Option<(f32, Vec2)> {
     let pvec = d.cross(e2);
     let det = e1.dot(pvec);
     if det == 0.0 || !det.is_finite() {
@@ -97,7 +95,7 @@ fn intersect_triangle(o: Vec3, d: Vec3, t_max: f32, v0: Vec3, v1: Vec3, v2: Vec3
 /// Ray–sphere intersection in the numerically careful form of Haines et al. 2019 ("Precision
 /// Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7): the discriminant is
 /// computed from the perpendicular offset, avoiding cancellation for distant or tiny spheres.
-#[inline]
+#[inline(always)]
 fn intersect_sphere(o: Vec3, d: Vec3, t_max: f32, center: Vec3, radius: f32) -> Option<f32> {
     let f = o - center;
     let b = -f.dot(d);
@@ -124,6 +122,30 @@ fn intersect_sphere(o: Vec3, d: Vec3, t_max: f32, center: Vec3, radius: f32) -> 
     }
 }
 
+/// A primitive as the traversal loop reads it: triangles with precomputed edges.
+#[derive(Clone, Copy, Debug)]
+enum Shape {
+    Triangle { v0: Vec3, e1: Vec3, e2: Vec3 },
+    Sphere { center: Vec3, radius: f32 },
+}
+
+impl Shape {
+    fn new(p: &Primitive) -> Self {
+        match *p {
+            Primitive::Triangle([v0, v1, v2]) => Shape::Triangle { v0, e1: v1 - v0, e2: v2 - v0 },
+            Primitive::Sphere { center, radius } => Shape::Sphere { center, radius },
+        }
+    }
+
+    #[inline(always)]
+    fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, Vec2)> {
+        match *self {
+            Shape::Triangle { v0, e1, e2 } => intersect_triangle(o, d, t_max, v0, e1, e2),
+            Shape::Sphere { center, radius } => intersect_sphere(o, d, t_max, center, radius).map(|t| (t, Vec2::ZERO)),
+        }
+    }
+}
+
 struct Bounds(Aabb);
 
 impl Boundable for Bounds {
@@ -136,7 +158,7 @@ impl Boundable for Bounds {
 pub struct Accel {
     bvh: CwBvh,
     /// Primitives in BVH order.
-    prims: Vec<Primitive>,
+    prims: Vec<Shape>,
     /// Input index of each primitive in BVH order.
     ids: Vec<u32>,
 }
@@ -155,7 +177,7 @@ impl Accel {
             .collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
         let ids = bvh.primitive_indices.clone();
-        let prims = ids.iter().map(|&i| primitives[i as usize]).collect();
+        let prims = ids.iter().map(|&i| Shape::new(&primitives[i as usize])).collect();
         Self { bvh, prims, ids }
     }
 
