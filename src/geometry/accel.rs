@@ -132,7 +132,11 @@ enum Shape {
 impl Shape {
     fn new(p: &Primitive) -> Self {
         match *p {
-            Primitive::Triangle([v0, v1, v2]) => Shape::Triangle { v0, e1: v1 - v0, e2: v2 - v0 },
+            Primitive::Triangle([v0, v1, v2]) => Shape::Triangle {
+                v0,
+                e1: v1 - v0,
+                e2: v2 - v0,
+            },
             Primitive::Sphere { center, radius } => Shape::Sphere { center, radius },
         }
     }

@@ -3,6 +3,7 @@
 
 pub mod chi2;
 pub mod distribution;
+pub mod photon_grid;
 pub mod rng;
 pub mod warp;
 

@@ -1,0 +1,186 @@
+//! The photon-built direction pdf of Jensen 1995, "Importance Driven Path Tracing using the
+//! Photon Map", §3.
+//!
+//! At a diffuse point, the incoming directions of nearby photons are mapped to the unit square
+//! by the inverse of the cosine warp T(u, v) = (θ, φ) = (arccos √(1 − u), 2πv) [Jensen 1995,
+//! eq. (9); the text prints "cos" for "arccos"], i.e. u = sin²θ, v = φ / 2π. The photons'
+//! reflected flux ΔΦ_r = f_r ΔΦ_i (luminance) is accumulated in an m × n grid over (u, v)
+//! (m θ-intervals × n φ-intervals; the paper uses 4 × 16). A direction is sampled by picking a
+//! cell ∝ its flux and a uniform point in it, then applying T.
+//!
+//! Because T maps the uniform density on the square to the cosine density on the hemisphere,
+//! the solid-angle pdf of a direction in cell c is
+//! p(ω) = (cos θ / π) · cells · Φ_c / Φ_total,
+//! and the estimator's weight for a Lambertian surface f_r cos θ / p(ω) = ρ · Φ_total /
+//! (cells · Φ_c) is the paper's scaling factor s [eq. (11)].
+//!
+//! **Decision** (the paper only says empty cells get "a small fraction" of the energy): each
+//! empty cell receives ε · Φ_total / (number of empty cells), ε = 1 % by default, so no
+//! direction of the hemisphere has zero probability and the estimator stays unbiased. With no
+//! photon at all the grid is uniform, i.e. plain cosine sampling.
+
+use super::Distribution1D;
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, TAU};
+
+/// Jensen's piecewise-constant pdf over the cosine-warped hemisphere (local frame, +z = n).
+#[derive(Clone, Debug)]
+pub struct PhotonGrid {
+    /// θ-intervals (over u = sin²θ).
+    m: usize,
+    /// φ-intervals (over v = φ / 2π).
+    n: usize,
+    /// Cell selection ∝ flux, cells in row-major (u, v) order.
+    cells: Distribution1D,
+}
+
+/// Cell of a local direction `w` (z > 0) in an m × n grid: the inverse warp T⁻¹.
+#[inline]
+fn cell_of(w: Vec3, m: usize, n: usize) -> usize {
+    let u = (1.0 - w.z * w.z).clamp(0.0, 1.0);
+    let mut v = w.y.atan2(w.x) / TAU;
+    if v < 0.0 {
+        v += 1.0;
+    }
+    let i = ((u * m as f32) as usize).min(m - 1);
+    let j = ((v * n as f32) as usize).min(n - 1);
+    i * n + j
+}
+
+impl PhotonGrid {
+    /// Builds the grid from photons given as (incoming direction in the local frame, reflected
+    /// flux luminance f_r ΔΦ). Directions below the surface (z ≤ 0) and non-positive or
+    /// non-finite fluxes are ignored. `epsilon` is the share of the total flux spread over the
+    /// empty cells.
+    pub fn build(photons: impl IntoIterator<Item = (Vec3, f32)>, m: usize, n: usize, epsilon: f32) -> Self {
+        assert!(m > 0 && n > 0, "grid must have cells");
+        let mut flux = vec![0.0f32; m * n];
+        for (w, phi) in photons {
+            if w.z > 0.0 && phi > 0.0 && phi.is_finite() {
+                flux[cell_of(w, m, n)] += phi;
+            }
+        }
+        let total: f32 = flux.iter().sum();
+        let empty = flux.iter().filter(|&&f| f == 0.0).count();
+        if total == 0.0 {
+            flux.fill(1.0);
+        } else if empty > 0 {
+            let share = epsilon.max(0.0) * total / empty as f32;
+            // ε = 0 reproduces a grid that can miss directions: it is allowed (for studying the
+            // bias) but then the pdf is zero there.
+            flux.iter_mut().filter(|f| **f == 0.0).for_each(|f| *f = share);
+        }
+        let cells = Distribution1D::new(&flux)
+            .unwrap_or_else(|| Distribution1D::new(&vec![1.0; m * n]).expect("uniform weights"));
+        Self { m, n, cells }
+    }
+
+    /// Number of cells m · n.
+    pub fn cell_count(&self) -> usize {
+        self.m * self.n
+    }
+
+    /// Samples a local direction (z > 0); returns it with its solid-angle pdf.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> (Vec3, f32) {
+        let (c, p_cell, u_rem) = self.cells.sample(u.x);
+        let (i, j) = (c / self.n, c % self.n);
+        // A uniform point in the cell: u.x was spent on the cell choice and is reused via its
+        // remainder for the u coordinate; u.y drives v.
+        let uu = (i as f32 + u_rem) / self.m as f32;
+        let vv = (j as f32 + u.y) / self.n as f32;
+        let cos_theta = (1.0 - uu).max(0.0).sqrt();
+        let sin_theta = uu.sqrt();
+        let phi = TAU * vv;
+        let w = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+        (w, cos_theta * FRAC_1_PI * p_cell * self.cell_count() as f32)
+    }
+
+    /// Solid-angle pdf of `sample` for local direction `w`.
+    #[inline]
+    pub fn pdf(&self, w: Vec3) -> f32 {
+        if w.z <= 0.0 {
+            return 0.0;
+        }
+        w.z * FRAC_1_PI * self.cells.pmf(cell_of(w, self.m, self.n)) * self.cell_count() as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::{CHI2_ALPHA, DirectionTest, chi2_test_directions};
+    use crate::sampling::{Rng, sample_uniform_hemisphere};
+
+    /// A photon set concentrated around one direction, plus a few strays.
+    fn photons(seed: u64) -> Vec<(Vec3, f32)> {
+        let mut rng = Rng::for_task(seed, [0, 0, 0]);
+        let lobe = Vec3::new(0.5, -0.3, 0.81).normalize();
+        (0..50)
+            .map(|k| {
+                let w = if k < 40 {
+                    (lobe + 0.2 * (sample_uniform_hemisphere(rng.uniform2()) - Vec3::Z)).normalize()
+                } else {
+                    sample_uniform_hemisphere(rng.uniform2())
+                };
+                (w, 0.5 + rng.uniform())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn photon_grid_sampler_passes_chi2_against_its_pdf() {
+        for (m, n, eps) in [(4, 16, 0.01), (2, 8, 0.1), (8, 32, 0.01)] {
+            let grid = PhotonGrid::build(photons(m as u64), m, n, eps);
+            let report = chi2_test_directions(
+                |rng: &mut Rng| Some(grid.sample(rng.uniform2())),
+                |w| grid.pdf(w),
+                DirectionTest::default(),
+            );
+            assert!(report.passes(CHI2_ALPHA), "{m}x{n} ε={eps}: {report:?}");
+        }
+    }
+
+    #[test]
+    fn weight_is_jensens_scaling_factor() {
+        let grid = PhotonGrid::build(photons(1), 4, 16, 0.01);
+        let mut rng = Rng::for_task(2, [0, 0, 0]);
+        let rho = 0.7;
+        for _ in 0..100 {
+            let (w, pdf) = grid.sample(rng.uniform2());
+            let c = cell_of(w, 4, 16);
+            // s = ρ Φ_total / (cells Φ_c) [eq. (11)], with Φ_c / Φ_total the cell's probability.
+            let s = rho / (64.0 * grid.cells.pmf(c));
+            let weight = rho * FRAC_1_PI * w.z / pdf;
+            assert!((weight - s).abs() < 1e-4 * s, "{weight} vs {s}");
+        }
+    }
+
+    #[test]
+    fn every_direction_keeps_a_positive_pdf() {
+        let grid = PhotonGrid::build(photons(3), 4, 16, 0.01);
+        let mut rng = Rng::for_task(4, [0, 0, 0]);
+        for _ in 0..1000 {
+            let w = sample_uniform_hemisphere(rng.uniform2());
+            assert!(grid.pdf(w) > 0.0 || w.z == 0.0);
+        }
+        // ε is the share of all flux given to the empty cells together.
+        let flux_of_empty: f32 = (0..64).map(|c| grid.cells.pmf(c)).filter(|&p| p < 0.01 / 30.0).sum();
+        assert!(flux_of_empty <= 0.0101, "{flux_of_empty}");
+    }
+
+    #[test]
+    fn no_photons_gives_cosine_sampling() {
+        let grid = PhotonGrid::build(std::iter::empty(), 4, 16, 0.01);
+        let w = Vec3::new(0.3, 0.4, 0.866).normalize();
+        assert!((grid.pdf(w) - w.z * FRAC_1_PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn photons_below_the_surface_are_ignored() {
+        let below = vec![(Vec3::new(0.0, 0.6, -0.8), 5.0)];
+        let grid = PhotonGrid::build(below, 4, 16, 0.01);
+        let w = Vec3::new(0.0, 0.6, 0.8);
+        assert!((grid.pdf(w) - w.z * FRAC_1_PI).abs() < 1e-6, "uniform grid expected");
+    }
+}
