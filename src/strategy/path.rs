@@ -109,27 +109,57 @@ impl RayTally for () {
     fn shadow(&mut self, _: &Ray) {}
 }
 
-/// Samples the next direction at a non-delta or delta BSDF, honouring `bsdf_sampling`.
-/// Returns the local direction with f_s and its solid-angle pdf.
-fn sample_direction(bsdf: &Bsdf, wo: Vec3, rng: &mut Rng, mode: BsdfSampling) -> Option<BsdfSample> {
-    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
-    if mode == BsdfSampling::Importance || bsdf.is_delta() {
-        return bsdf.sample(wo, u, u_lobe, TransportMode::Radiance);
+/// How a path picks its next direction at a vertex. Path tracing uses the BSDF (or uniform)
+/// sampling of [`BsdfSampling`]; photon-guided path tracing [Jensen 1995] plugs in a pdf built
+/// from nearby photons. The per-vertex state (e.g. Jensen's grid) is built once and shared by
+/// the direction sample and by the MIS weight of light sampling.
+pub trait DirectionSampler: Sync {
+    /// State built at a vertex before anything is sampled there.
+    type Vertex;
+    fn vertex(&self, scene: &Scene, hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3) -> Self::Vertex;
+    /// A local direction with f_s and its solid-angle pdf (or discrete probability if delta).
+    fn sample(&self, v: &Self::Vertex, bsdf: &Bsdf, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample>;
+    /// Solid-angle pdf with which [`DirectionSampler::sample`] would produce `wi` (for MIS).
+    fn pdf(&self, v: &Self::Vertex, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32;
+}
+
+impl DirectionSampler for BsdfSampling {
+    type Vertex = ();
+
+    #[inline]
+    fn vertex(&self, _: &Scene, _: &SurfaceHit, _: &Bsdf, _: Vec3) {}
+
+    /// BSDF importance sampling, or uniform sampling of the hemisphere of `wo` (the sphere for
+    /// transmitting models); delta models always sample their own lobes.
+    #[inline]
+    fn sample(&self, _: &(), bsdf: &Bsdf, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
+        let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+        if *self == BsdfSampling::Importance || bsdf.is_delta() {
+            return bsdf.sample(wo, u, u_lobe, TransportMode::Radiance);
+        }
+        let wi = if bsdf.is_transmissive() {
+            sample_uniform_sphere(u)
+        } else {
+            let w = sample_uniform_hemisphere(u);
+            if wo.z < 0.0 { Vec3::new(w.x, w.y, -w.z) } else { w }
+        };
+        let pdf_w = uniform_pdf(bsdf, wo, wi);
+        let f = bsdf.eval(wo, wi, TransportMode::Radiance);
+        (pdf_w > 0.0).then_some(BsdfSample {
+            wi,
+            f,
+            pdf_w,
+            delta: false,
+        })
     }
-    let wi = if bsdf.is_transmissive() {
-        sample_uniform_sphere(u)
-    } else {
-        let w = sample_uniform_hemisphere(u);
-        if wo.z < 0.0 { Vec3::new(w.x, w.y, -w.z) } else { w }
-    };
-    let pdf_w = uniform_pdf(bsdf, wo, wi);
-    let f = bsdf.eval(wo, wi, TransportMode::Radiance);
-    (pdf_w > 0.0).then_some(BsdfSample {
-        wi,
-        f,
-        pdf_w,
-        delta: false,
-    })
+
+    #[inline]
+    fn pdf(&self, _: &(), bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            BsdfSampling::Importance => bsdf.pdf(wo, wi),
+            BsdfSampling::Uniform => uniform_pdf(bsdf, wo, wi),
+        }
+    }
 }
 
 /// Solid-angle pdf of the uniform sampling mode.
@@ -143,24 +173,18 @@ fn uniform_pdf(bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
     }
 }
 
-/// Solid-angle pdf with which BSDF sampling would have produced `wi` (for MIS).
-fn bsdf_pdf(bsdf: &Bsdf, wo: Vec3, wi: Vec3, mode: BsdfSampling) -> f32 {
-    match mode {
-        BsdfSampling::Importance => bsdf.pdf(wo, wi),
-        BsdfSampling::Uniform => uniform_pdf(bsdf, wo, wi),
-    }
-}
-
 /// Light sampling at `hit` [Veach 1997, eq. (9.12) with the power heuristic]: picks a light ∝
 /// power, a point uniformly on it, and returns the MIS-weighted contribution
 /// f_s |cos θi| Le w_light / p_light,ω.
-fn estimate_direct(
+#[allow(clippy::too_many_arguments)]
+fn estimate_direct<S: DirectionSampler>(
     scene: &Scene,
     hit: &SurfaceHit,
     bsdf: &Bsdf,
     wo: Vec3,
     rng: &mut Rng,
-    params: &PathParams,
+    direct: Direct,
+    (sampler, vertex): (&S, &S::Vertex),
     tally: &mut impl RayTally,
 ) -> Vec3 {
     let (light_index, pmf, _) = scene.light_selection.sample(rng.uniform());
@@ -188,8 +212,8 @@ fn estimate_direct(
         return Vec3::ZERO;
     }
     let pdf_light_w = pmf * lp.pdf_a * dist2 / cos_light;
-    let weight = match params.direct {
-        Direct::Mis => power_heuristic(pdf_light_w, bsdf_pdf(bsdf, wo, wi_local, params.bsdf_sampling)),
+    let weight = match direct {
+        Direct::Mis => power_heuristic(pdf_light_w, sampler.pdf(vertex, bsdf, wo, wi_local)),
         _ => 1.0,
     };
     f * le * (wi_local.z.abs() * weight / pdf_light_w)
@@ -203,9 +227,28 @@ pub fn radiance(scene: &Scene, params: &PathParams, ray: Ray, rng: &mut Rng) -> 
 
 /// [`radiance`], reporting every ray it traces to `tally` (for `bench perf`; `()` ignores them
 /// and compiles away).
-pub fn radiance_traced(
+pub fn radiance_traced(scene: &Scene, params: &PathParams, ray: Ray, rng: &mut Rng, tally: &mut impl RayTally) -> Vec3 {
+    let walk = Walk {
+        max_depth: params.max_depth,
+        rr_depth: params.rr_depth,
+        direct: params.direct,
+    };
+    trace(scene, &walk, &params.bsdf_sampling, ray, rng, tally)
+}
+
+/// The parameters of the random walk shared by every path-tracing variant.
+#[derive(Clone, Copy, Debug)]
+pub struct Walk {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub direct: Direct,
+}
+
+/// One path sample: radiance arriving along `ray`, choosing directions with `sampler`.
+pub fn trace<S: DirectionSampler>(
     scene: &Scene,
-    params: &PathParams,
+    params: &Walk,
+    sampler: &S,
     mut ray: Ray,
     rng: &mut Rng,
     tally: &mut impl RayTally,
@@ -245,11 +288,12 @@ pub fn radiance_traced(
 
         let bsdf = scene.bsdf(&hit);
         let wo = hit.frame.to_local(-ray.d);
+        let vertex = sampler.vertex(scene, &hit, bsdf, wo);
         if nee && !bsdf.is_delta() {
-            l += beta * estimate_direct(scene, &hit, bsdf, wo, rng, params, tally);
+            l += beta * estimate_direct(scene, &hit, bsdf, wo, rng, params.direct, (sampler, &vertex), tally);
         }
 
-        let Some(s) = sample_direction(bsdf, wo, rng, params.bsdf_sampling) else {
+        let Some(s) = sampler.sample(&vertex, bsdf, wo, rng) else {
             break;
         };
         let wi = hit.frame.to_world(s.wi);
