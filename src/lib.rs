@@ -23,6 +23,7 @@ pub mod geometry;
 pub mod light;
 pub mod metrics;
 pub mod perf;
+pub mod photon;
 pub mod report;
 pub mod sampling;
 pub mod scene;

@@ -48,6 +48,8 @@ pub trait Strategy: Send + Sync {
 /// Stream purposes, so that different uses of one seed never share random numbers.
 pub mod stream {
     pub const CAMERA_PATH: u64 = 1;
+    /// Photon path i of photon tracing: `[PHOTON_PATH, i, 0]` ([`crate::photon::trace_photons`]).
+    pub const PHOTON_PATH: u64 = 2;
 }
 
 /// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel
