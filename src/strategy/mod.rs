@@ -8,6 +8,7 @@
 //! 0..64 at once or as 0..16, 16..64 gives the bit-identical image, on any number of threads.
 
 pub mod path;
+pub mod photon_guided;
 
 pub use path::Path;
 
@@ -79,6 +80,7 @@ where
 pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
     match kind {
         "path" => Ok(Box::new(Path::new(parse_params::<path::PathParams>(params)?))),
+        "photon_guided" => Ok(Box::new(photon_guided::PhotonGuided::new(parse_params(params)?)?)),
         other => Err(Error::new(format!(
             "unknown strategy kind `{other}`; expected one of: {}",
             KINDS.join(", ")
@@ -87,7 +89,7 @@ pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
 }
 
 /// Every strategy kind, in the order `bench list` shows them.
-pub const KINDS: &[&str] = &["path"];
+pub const KINDS: &[&str] = &["path", "photon_guided"];
 
 /// A strategy kind as `bench list` shows it.
 pub struct KindInfo {
@@ -99,11 +101,13 @@ pub struct KindInfo {
 
 /// Parameters and defaults of every kind, for `bench list`.
 pub fn describe() -> Vec<KindInfo> {
-    vec![KindInfo {
-        kind: "path",
-        summary: path::SUMMARY,
-        defaults: Path::new(path::PathParams::default()).params(),
-    }]
+    let guided = photon_guided::PhotonGuided::new(photon_guided::PhotonGuidedParams::default());
+    let mut kinds =
+        vec![KindInfo { kind: "path", summary: path::SUMMARY, defaults: Path::new(path::PathParams::default()).params() }];
+    if let Ok(g) = guided {
+        kinds.push(KindInfo { kind: "photon_guided", summary: photon_guided::SUMMARY, defaults: g.params() });
+    }
+    kinds
 }
 
 fn parse_params<T: serde::de::DeserializeOwned>(params: toml::Table) -> Result<T> {
