@@ -12,13 +12,14 @@
 //! Typical use:
 //! ```no_run
 //! # use photon_bench::photon::*;
-//! # let scene: photon_bench::scene::Scene = todo!();
+//! let scene = photon_bench::scene::load_scene(std::path::Path::new("scenes/cornell-spheres.toml"))?;
 //! let traced = trace_photons(&scene, &TraceParams::default(), 7);
 //! let global = PhotonMap::build(traced.global);
 //! let params = EstimateParams { nearest: 50, max_radius: 0.05, ..EstimateParams::default() };
 //! let e = global.irradiance(glam::Vec3::ZERO, glam::Vec3::Y, &params).value;
 //! let fast = precompute_irradiance(&global, 4, &params);
 //! let e_fast = fast.irradiance_at(glam::Vec3::ZERO, glam::Vec3::Y, 0.9);
+//! # Ok::<(), photon_bench::Error>(())
 //! ```
 
 pub mod estimate;
