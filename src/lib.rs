@@ -24,6 +24,7 @@ pub mod light;
 pub mod metrics;
 pub mod perf;
 pub mod report;
+pub mod resources;
 pub mod sampling;
 pub mod scene;
 pub mod strategy;
