@@ -228,3 +228,44 @@ fn an_absurd_resolution_is_refused_before_any_allocation() {
     assert_eq!(o.status.code(), Some(2));
     assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
 }
+
+/// A film within the side and pixel limits but over the memory limit is refused when the scene
+/// loads, before any film exists; `PHOTON_BENCH_MEMORY_LIMIT` sets the limit.
+#[test]
+fn a_film_over_the_memory_limit_is_refused_and_one_under_it_renders() {
+    let dir = copy_corpus();
+    let root = dir.path();
+    let scene = std::fs::read_to_string(root.join("valid/tiny.toml"))
+        .unwrap()
+        .replace("resolution = [8, 6]", "resolution = [8192, 8192]");
+    std::fs::write(root.join("big.toml"), scene).unwrap();
+    let before = listing(root);
+    let o = Command::new(env!("CARGO_BIN_EXE_bench"))
+        .current_dir(root)
+        .env("PHOTON_BENCH_MEMORY_LIMIT", "1G")
+        .args(["reference", "big.toml", "--spp", "1", "--out", "refs"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: big.toml: camera.resolution: a 8192 × 8192 film needs about 2.75 GiB, more than the \
+         memory limit of 1.00 GiB (set PHOTON_BENCH_MEMORY_LIMIT to change it)"
+    );
+    assert_eq!(listing(root), before);
+    // The same limit lets a small film through; a malformed limit is an error, not ignored.
+    for (limit, ok) in [("1G", true), ("lots", false)] {
+        let o = Command::new(env!("CARGO_BIN_EXE_bench"))
+            .current_dir(root)
+            .env("PHOTON_BENCH_MEMORY_LIMIT", limit)
+            .args(["reference", "valid/tiny.toml", "--spp", "1", "--out", "refs", "--force"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.success(), ok, "{limit}: {err}");
+        if !ok {
+            assert!(err.starts_with("error: PHOTON_BENCH_MEMORY_LIMIT: "), "{err}");
+        }
+    }
+}
