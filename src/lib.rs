@@ -25,6 +25,7 @@ pub mod metrics;
 pub mod perf;
 pub mod photon;
 pub mod report;
+pub mod resources;
 pub mod sampling;
 pub mod scene;
 pub mod strategy;

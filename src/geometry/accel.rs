@@ -4,6 +4,15 @@
 //! obvhs hands the traversal closure an index into `bvh.primitive_indices`, not into our input
 //! order; we copy the primitives into BVH order once at build time so the hot loop reads them
 //! contiguously, and map hits back to input ids.
+//!
+//! **BVH space.** obvhs's node test clamps every child's entry distance to an absolute 10⁻⁴
+//! (`cwbvh::node::EPSILON`): a child box the ray leaves before t = 10⁻⁴ is culled. In world
+//! units that made geometry closer than 0.1 mm to a ray's origin invisible (rays leaving a
+//! floor next to a wall escaped through the wall), and a scene in millimetres rendered black.
+//! So the BVH lives in a space scaled by a power of two, `k`, chosen so that the scene's extent
+//! becomes 2²⁴: the clamp then sits at 6·10⁻¹² of the extent, far below f32 resolution, at every
+//! scale. Power-of-two scaling is exact, so primitives are still intersected in world space
+//! with the world ray; only obvhs sees scaled origins and distances.
 
 use super::Ray;
 use glam::{Vec2, Vec3, Vec3A};
@@ -165,24 +174,49 @@ pub struct Accel {
     prims: Vec<Shape>,
     /// Input index of each primitive in BVH order.
     ids: Vec<u32>,
+    /// World → BVH space scale, a power of two (see the module doc).
+    k: f32,
+}
+
+/// log2 of the scene extent in BVH space.
+const BVH_EXTENT_LOG2: i32 = 24;
+
+/// The power of two that maps an extent `e` to about 2^[`BVH_EXTENT_LOG2`].
+fn bvh_scale(extent: f32) -> f32 {
+    let e = if extent.is_finite() && extent > 0.0 {
+        BVH_EXTENT_LOG2 - extent.log2().ceil() as i32
+    } else {
+        0
+    };
+    2f32.powi(e.clamp(-64, 64))
 }
 
 impl Accel {
     pub fn build(primitives: &[Primitive]) -> Self {
+        let (lo, hi) = primitives
+            .iter()
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| {
+                let (a, b) = p.aabb_min_max();
+                (lo.min(a), hi.max(b))
+            });
+        let k = bvh_scale((hi - lo).max_element());
         let bounds: Vec<Bounds> = primitives
             .iter()
             .map(|p| {
                 // Pad by a few ULPs of the coordinates: axis-aligned quads (every wall of a
-                // Cornell box) have flat boxes, which slab tests can miss at grazing t.
+                // Cornell box) have flat boxes, which slab tests can miss at grazing t. The
+                // floor of the pad is relative to the scene's extent, so it scales with it.
                 let (lo, hi) = p.aabb_min_max();
-                let pad = Vec3::splat(1e-6) * lo.abs().max(hi.abs()).max(Vec3::splat(1e-3));
+                let (lo, hi) = (lo * k, hi * k);
+                let floor = Vec3::splat(2f32.powi(BVH_EXTENT_LOG2 - 10));
+                let pad = Vec3::splat(1e-6) * lo.abs().max(hi.abs()).max(floor);
                 Bounds(Aabb::new(Vec3A::from(lo - pad), Vec3A::from(hi + pad)))
             })
             .collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
         let ids = bvh.primitive_indices.clone();
         let prims = ids.iter().map(|&i| Shape::new(&primitives[i as usize])).collect();
-        Self { bvh, prims, ids }
+        Self { bvh, prims, ids, k }
     }
 
     pub fn len(&self) -> usize {
@@ -193,10 +227,16 @@ impl Accel {
         self.prims.is_empty()
     }
 
-    fn obvhs_ray(ray: &Ray) -> obvhs::ray::Ray {
+    /// The ray in BVH space: origin and distances times `k`, the direction as is.
+    fn obvhs_ray(&self, ray: &Ray) -> obvhs::ray::Ray {
         // Adding +0 turns −0 components into +0: obvhs picks slab order from `d < 0` but the
         // inverse from the sign bit, so a −0 component would invert that slab and miss.
-        obvhs::ray::Ray::new(Vec3A::from(ray.o), Vec3A::from(ray.d) + Vec3A::ZERO, 0.0, ray.t_max)
+        obvhs::ray::Ray::new(
+            Vec3A::from(ray.o * self.k),
+            Vec3A::from(ray.d) + Vec3A::ZERO,
+            0.0,
+            ray.t_max * self.k,
+        )
     }
 
     /// Closest hit along `ray` within (0, t_max).
@@ -206,12 +246,13 @@ impl Accel {
         }
         let mut hit = obvhs::ray::RayHit::none();
         let mut b = Vec2::ZERO;
-        let (o, d) = (ray.o, ray.d);
-        let found = self.bvh.ray_traverse(Self::obvhs_ray(ray), &mut hit, |r, id| {
-            match self.prims[id].intersect(o, d, r.tmax) {
+        let (o, d, k) = (ray.o, ray.d, self.k);
+        let found = self.bvh.ray_traverse(self.obvhs_ray(ray), &mut hit, |r, id| {
+            // World-space test against the world t_max (exact: k is a power of two).
+            match self.prims[id].intersect(o, d, r.tmax / k) {
                 Some((t, bary)) => {
                     b = bary;
-                    t
+                    t * k
                 }
                 None => f32::INFINITY,
             }
@@ -219,7 +260,7 @@ impl Accel {
         // `b` holds the barycentrics of the last accepted (hence closest) candidate: the
         // closure only returns t < tmax, and obvhs shrinks tmax on every accepted hit.
         found.then(|| Hit {
-            t: hit.t,
+            t: hit.t / k,
             prim: self.ids[hit.primitive_id as usize],
             b,
         })
@@ -230,9 +271,11 @@ impl Accel {
         if self.prims.is_empty() {
             return true;
         }
-        let (o, d) = (ray.o, ray.d);
-        self.bvh.ray_traverse_miss(Self::obvhs_ray(ray), |r, id| {
-            self.prims[id].intersect(o, d, r.tmax).map_or(f32::INFINITY, |(t, _)| t)
+        let (o, d, k) = (ray.o, ray.d, self.k);
+        self.bvh.ray_traverse_miss(self.obvhs_ray(ray), |r, id| {
+            self.prims[id]
+                .intersect(o, d, r.tmax / k)
+                .map_or(f32::INFINITY, |(t, _)| t * k)
         })
     }
 }
@@ -291,6 +334,32 @@ mod tests {
             assert_eq!(accel.unoccluded(&ray), expected.is_none());
         }
         assert!(hits > 200, "the test must exercise hits, got {hits}");
+    }
+
+    /// obvhs culls child boxes the ray leaves before t = 10⁻⁴ (in its own units); in world
+    /// units that hid a floor 10 µm below a ray's origin, and every surface of a scene
+    /// measured in micrometres. The scaled BVH space finds them at every scale.
+    #[test]
+    fn hits_closer_than_obvhs_epsilon_are_found_at_every_scale() {
+        for s in [1e-6f32, 1e-3, 1.0, 1e3, 1e6] {
+            let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) * s;
+            let floor = [
+                Primitive::Triangle([v(-1.0, 0.0, -1.0), v(-1.0, 0.0, 1.0), v(1.0, 0.0, 1.0)]),
+                Primitive::Triangle([v(-1.0, 0.0, -1.0), v(1.0, 0.0, 1.0), v(1.0, 0.0, -1.0)]),
+            ];
+            let accel = Accel::build(&floor);
+            let ray = Ray::new(v(0.0, 1.0, 4.0), Vec3::new(0.0, -0.25, -1.0).normalize());
+            let h = accel
+                .intersect(&ray)
+                .unwrap_or_else(|| panic!("scale {s}: camera ray misses"));
+            assert!((h.t - 4.1231 * s).abs() < 1e-4 * s, "scale {s}: t = {}", h.t);
+            let ray = Ray::new(v(0.1, 1e-5, 0.2), -Vec3::Y);
+            let h = accel
+                .intersect(&ray)
+                .unwrap_or_else(|| panic!("scale {s}: near floor missed"));
+            assert!((h.t - 1e-5 * s).abs() < 1e-8 * s, "scale {s}: t = {}", h.t);
+            assert!(!accel.unoccluded(&ray), "scale {s}");
+        }
     }
 
     #[test]

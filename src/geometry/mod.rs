@@ -73,15 +73,24 @@ impl Frame {
 
 /// Moves a surface point off its surface along the geometric normal `ng`, toward the side `d`
 /// points to, by a few ULPs of the point's coordinates (Wächter & Binder 2019, "A Fast and
-/// Robust Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6). The offset scales with
-/// the magnitude of the coordinates, so it works for scenes at any scale; rays spawned from the
+/// Robust Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6); rays spawned from the
 /// offset point then use t_min = 0.
+///
+/// Unlike the original, whose fallback for coordinates near zero adds an absolute 2⁻¹⁶ (right
+/// for scenes of size about 1, far too much for a scene in kilometres written in metres ÷ 10⁶,
+/// where it jumped across whole objects), both branches here are relative to the point's
+/// largest coordinate magnitude `m`: a coordinate smaller than `m / 32` moves by `m · 2⁻¹⁶`, the
+/// others by 256 ULPs. The offset is therefore invariant under scaling the scene. Its one
+/// blind spot, shared by every method that sees only the point: a hit much closer to the world
+/// origin than the vertices of its (tilted) triangle, whose rounding error follows the
+/// vertices, not the point.
 #[inline]
 pub fn offset_ray_origin(p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
+    const NEAR_ZERO: f32 = 1.0 / 32.0;
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
     const INT_SCALE: f32 = 256.0;
     let n = if ng.dot(d) < 0.0 { -ng } else { ng };
+    let m = p.abs().max_element().max(f32::MIN_POSITIVE);
     let of_i = (n * INT_SCALE).as_ivec3();
     let offset = |p: f32, o: i32| -> f32 {
         let bits = p.to_bits() as i32;
@@ -89,7 +98,11 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
     };
     let p_i = Vec3::new(offset(p.x, of_i.x), offset(p.y, of_i.y), offset(p.z, of_i.z));
     let pick = |p: f32, pi: f32, n: f32| {
-        if p.abs() < ORIGIN { p + FLOAT_SCALE * n } else { pi }
+        if p.abs() < NEAR_ZERO * m {
+            p + FLOAT_SCALE * m * n
+        } else {
+            pi
+        }
     };
     Vec3::new(pick(p.x, p_i.x, n.x), pick(p.y, p_i.y, n.y), pick(p.z, p_i.z, n.z))
 }
@@ -141,6 +154,25 @@ mod tests {
             assert!((f.s.cross(f.t) - n).length() < 1e-5, "right-handed");
             let v = Vec3::new(0.2, -0.7, 0.4);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    /// Scaling the scene scales the offset: a point on the wall x = 0 of a box of size 0.5·s
+    /// moves off the wall by a fixed fraction of s. (The absolute 2⁻¹⁶ of the original method
+    /// moved it 15 µm at every scale: 30 box sizes at s = 10⁻⁶.)
+    #[test]
+    fn offset_is_invariant_under_scaling_the_scene() {
+        let p = Vec3::new(0.0, 0.3, 0.4);
+        let d = Vec3::new(1.0, 0.2, 0.1).normalize();
+        let base = (offset_ray_origin(p, Vec3::X, d) - p) / 1.0;
+        for scale in [1e-6f32, 1e-3, 1.0, 1e3, 1e6] {
+            let q = p * scale;
+            let off = (offset_ray_origin(q, Vec3::X, d) - q) / scale;
+            assert!(off.x > 0.0, "scale {scale}: lands on the side of d");
+            assert!(
+                (off - base).abs().max_element() <= 1e-2 * base.length(),
+                "scale {scale}: {off} vs {base}"
+            );
         }
     }
 

@@ -5,7 +5,8 @@
 //! shipped scenes use metres), angles in degrees, colours are linear RGB triples `[r, g, b]`.
 //!
 //! ```toml
-//! name = "cornell-empty"            # optional, non-empty; defaults to the file stem
+//! name = "cornell-empty"            # optional; defaults to the file stem. Part of file names:
+//!                                   # no / or \, no leading dot or space
 //!
 //! [camera]                          # a pinhole camera
 //! eye = [0.278, 0.273, -0.8]

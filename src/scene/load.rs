@@ -21,6 +21,7 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::geometry::Primitive;
 use crate::light::Emission;
+use crate::resources::{check_memory, film_bytes, memory_limit};
 use crate::util::content_hash;
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use serde::Deserialize;
@@ -118,12 +119,16 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
     let user_paths = user_paths(&ctx, &desc.user_paths, &b.primitives, &b.attrs)?;
 
     if let Some(name) = &desc.name
-        && (name.trim().is_empty() || name.chars().any(char::is_control))
+        && !is_file_name_safe(name)
     {
-        // The name labels result rows and file names.
+        // The name labels result rows and becomes part of file names (`references/<name>.exr`,
+        // `images/<name>_…`): a separator or a leading dot would put files elsewhere.
         return Err(ctx.err(
             "name",
-            format!("expected a non-empty name without control characters, got {name:?}"),
+            format!(
+                "expected a non-empty name without '/', '\\', control characters or a leading \
+                 '.' or space, got {name:?}"
+            ),
         ));
     }
     let name = desc.name.clone().unwrap_or_else(|| {
@@ -155,6 +160,15 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
         user_paths,
     )?;
     Ok((scene, stats))
+}
+
+/// A name that can be used as (part of) a file name in any directory: non-empty, no path
+/// separator or control character, and no leading dot or surrounding white space.
+fn is_file_name_safe(name: &str) -> bool {
+    !name.is_empty()
+        && name.trim() == name
+        && !name.starts_with('.')
+        && !name.chars().any(|c| c == '/' || c == '\\' || c.is_control())
 }
 
 /// The scene file's name, prefixed to every message.
@@ -486,6 +500,10 @@ fn camera(ctx: &Ctx, c: &desc::CameraDesc) -> Result<Camera> {
             format!("{w} × {h} pixels exceeds the limit of {} Mpixel", MAX_PIXELS >> 20),
         ));
     }
+    // Before any film is allocated: a film this machine cannot hold is refused here, not
+    // killed by the kernel halfway through a run.
+    let film = format!("a {w} × {h} film");
+    check_memory(&film, film_bytes(w, h), memory_limit()?).map_err(|e| ctx.err("camera.resolution", e))?;
     if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
         return Err(ctx.err(
             "camera.fov_y",

@@ -15,7 +15,7 @@ use crate::error::Result;
 use crate::geometry::{Accel, Frame, Hit, Primitive, Ray};
 use crate::light::{AreaLight, Emission};
 use crate::sampling::Distribution1D;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 
 /// A named material.
@@ -76,6 +76,30 @@ pub struct SurfaceHit {
     pub frame: Frame,
     pub prim: u32,
     pub material: u32,
+}
+
+/// Smallest barycentric coordinate of a triangle hit point, 2⁻¹⁶: about 256 ULPs of the
+/// coordinates for a triangle as large as its distance from the origin.
+pub const MIN_BARYCENTRIC: f32 = 1.0 / 65536.0;
+
+/// Moves barycentrics (b1, b2) on or next to an edge or a vertex inside the triangle, so that
+/// every barycentric, b0 = 1 − b1 − b2 included, is at least [`MIN_BARYCENTRIC`].
+///
+/// Why: at a concave edge (a floor meeting a wall) a hit exactly on the edge also lies on the
+/// wall's plane, and the ray offset along the floor's normal keeps it there; a ray leaving
+/// into the wall then starts on the wall and passes it at t ≈ 0, a light leak. Pulled inside,
+/// the point is a fixed fraction of the triangle off every edge, and such rays hit the wall.
+/// Points elsewhere are untouched, and moved points stay on the triangle: no bias beyond
+/// shading a point 2⁻¹⁶ of a triangle away from the hit.
+#[inline]
+pub fn pull_off_edges(b: Vec2) -> Vec2 {
+    let b = b.max(Vec2::splat(MIN_BARYCENTRIC));
+    let sum = b.x + b.y;
+    if sum > 1.0 - MIN_BARYCENTRIC {
+        b * ((1.0 - MIN_BARYCENTRIC) / sum)
+    } else {
+        b
+    }
 }
 
 /// Relative luminance of linear Rec. 709 RGB.
@@ -157,12 +181,13 @@ impl Scene {
         let attrs = &self.attrs[i];
         let (p, ng, ns, tangent) = match self.primitives[i] {
             Primitive::Triangle([a, b, c]) => {
-                let b0 = 1.0 - hit.b.x - hit.b.y;
-                let p = b0 * a + hit.b.x * b + hit.b.y * c;
+                let bary = pull_off_edges(hit.b);
+                let b0 = 1.0 - bary.x - bary.y;
+                let p = b0 * a + bary.x * b + bary.y * c;
                 let ng = (b - a).cross(c - a).normalize();
                 let ns = match attrs.normals {
                     Some([na, nb, nc]) => {
-                        let n = (b0 * na + hit.b.x * nb + hit.b.y * nc).normalize_or_zero();
+                        let n = (b0 * na + bary.x * nb + bary.y * nc).normalize_or_zero();
                         if n == Vec3::ZERO {
                             ng
                         } else if n.dot(ng) < 0.0 {

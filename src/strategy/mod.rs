@@ -102,10 +102,17 @@ pub struct KindInfo {
 /// Parameters and defaults of every kind, for `bench list`.
 pub fn describe() -> Vec<KindInfo> {
     let guided = photon_guided::PhotonGuided::new(photon_guided::PhotonGuidedParams::default());
-    let mut kinds =
-        vec![KindInfo { kind: "path", summary: path::SUMMARY, defaults: Path::new(path::PathParams::default()).params() }];
+    let mut kinds = vec![KindInfo {
+        kind: "path",
+        summary: path::SUMMARY,
+        defaults: Path::new(path::PathParams::default()).params(),
+    }];
     if let Ok(g) = guided {
-        kinds.push(KindInfo { kind: "photon_guided", summary: photon_guided::SUMMARY, defaults: g.params() });
+        kinds.push(KindInfo {
+            kind: "photon_guided",
+            summary: photon_guided::SUMMARY,
+            defaults: g.params(),
+        });
     }
     kinds
 }

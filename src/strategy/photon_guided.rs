@@ -78,22 +78,34 @@ impl PhotonGuidedParams {
     fn validate(&self) -> Result<()> {
         let bad = |what: &str, got: String| Err(Error::new(format!("{what}, got {got}")));
         if self.photons == 0 || self.photons > 100_000_000 {
-            return bad("photons: expected 1..=100000000 stored photons", self.photons.to_string());
+            return bad(
+                "photons: expected 1..=100000000 stored photons",
+                self.photons.to_string(),
+            );
         }
         if self.nearest == 0 || self.nearest > 10_000 {
             return bad("nearest: expected 1..=10000", self.nearest.to_string());
         }
         if self.grid.iter().any(|&g| g == 0 || g > 1024) {
-            return bad("grid: expected [θ cells, φ cells], each in 1..=1024", format!("{:?}", self.grid));
+            return bad(
+                "grid: expected [θ cells, φ cells], each in 1..=1024",
+                format!("{:?}", self.grid),
+            );
         }
         if !(0.0..=1.0).contains(&self.epsilon) {
             return bad("epsilon: expected a share in [0, 1]", self.epsilon.to_string());
         }
         if self.max_radius.is_nan() || self.max_radius <= 0.0 {
-            return bad("max_radius: expected a positive distance (or inf)", self.max_radius.to_string());
+            return bad(
+                "max_radius: expected a positive distance (or inf)",
+                self.max_radius.to_string(),
+            );
         }
         if !(0.0..=1.0).contains(&self.bsdf_mixture) {
-            return bad("bsdf_mixture: expected a probability in [0, 1]", self.bsdf_mixture.to_string());
+            return bad(
+                "bsdf_mixture: expected a probability in [0, 1]",
+                self.bsdf_mixture.to_string(),
+            );
         }
         Ok(())
     }
@@ -120,7 +132,12 @@ impl PhotonGuided {
 /// Traces photon paths until `stored` indirect photons are stored and keeps the first
 /// `stored` (in path order). Returns the photons and the number of paths emitted.
 fn trace_indirect(scene: &Scene, stored: u64, seed: u64) -> Result<PhotonMap> {
-    let mut params = TraceParams { photons: stored, store_direct: false, caustics: CausticStorage::None, ..TraceParams::default() };
+    let mut params = TraceParams {
+        photons: stored,
+        store_direct: false,
+        caustics: CausticStorage::None,
+        ..TraceParams::default()
+    };
     loop {
         let traced = trace_photons(scene, &params, seed);
         let got = traced.global.len() as u64;
@@ -130,7 +147,11 @@ fn trace_indirect(scene: &Scene, stored: u64, seed: u64) -> Result<PhotonMap> {
             return Ok(PhotonMap::build(photons));
         }
         // Emit enough more paths, with 10 % to spare; the first paths are the same ones again.
-        let next = if got == 0 { params.photons * 8 } else { (params.photons as f64 * stored as f64 / got as f64 * 1.1) as u64 + 1 };
+        let next = if got == 0 {
+            params.photons * 8
+        } else {
+            (params.photons as f64 * stored as f64 / got as f64 * 1.1) as u64 + 1
+        };
         if next > 64 * stored.max(1_000_000) {
             return Err(Error::new(format!(
                 "photons: {} emitted paths stored only {got} indirect photons; the scene returns too little light for {stored}",
@@ -164,15 +185,24 @@ impl Strategy for PhotonGuided {
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
         let start = Instant::now();
         self.map = Some(trace_indirect(scene, self.params.photons, seed)?);
-        Ok(vec![Phase { name: "photon_map", seconds: start.elapsed().as_secs_f64() }])
+        Ok(vec![Phase {
+            name: "photon_map",
+            seconds: start.elapsed().as_secs_f64(),
+        }])
     }
 
     fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
         let Some(map) = &self.map else { return };
         let p = &self.params;
-        let walk = Walk { max_depth: p.max_depth, rr_depth: p.rr_depth, direct: p.direct };
+        let walk = Walk {
+            max_depth: p.max_depth,
+            rr_depth: p.rr_depth,
+            direct: p.direct,
+        };
         let sampler = GridSampler { map, params: p };
-        render_pixels(scene, seed, samples, film, |ray, rng| trace(scene, &walk, &sampler, *ray, rng, &mut ()));
+        render_pixels(scene, seed, samples, film, |ray, rng| {
+            trace(scene, &walk, &sampler, *ray, rng, &mut ())
+        });
     }
 }
 
@@ -232,7 +262,9 @@ impl DirectionSampler for GridSampler<'_> {
     }
 
     fn sample(&self, v: &GuidedVertex, bsdf: &Bsdf, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
-        let Some(grid) = &v.grid else { return BsdfSampling::Importance.sample(&(), bsdf, wo, rng) };
+        let Some(grid) = &v.grid else {
+            return BsdfSampling::Importance.sample(&(), bsdf, wo, rng);
+        };
         let alpha = self.params.bsdf_mixture;
         let (u, u_choice) = (rng.uniform2(), rng.uniform());
         let wi = if u_choice < alpha {
@@ -242,7 +274,12 @@ impl DirectionSampler for GridSampler<'_> {
         };
         let pdf_w = self.pdf(v, bsdf, wo, wi);
         let f = bsdf.eval(wo, wi, TransportMode::Radiance);
-        (pdf_w > 0.0).then_some(BsdfSample { wi, f, pdf_w, delta: false })
+        (pdf_w > 0.0).then_some(BsdfSample {
+            wi,
+            f,
+            pdf_w,
+            delta: false,
+        })
     }
 
     fn pdf(&self, v: &GuidedVertex, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
@@ -251,7 +288,11 @@ impl DirectionSampler for GridSampler<'_> {
             Some(grid) => {
                 let alpha = self.params.bsdf_mixture;
                 let p_grid = grid.pdf(mirror(wi, v.flip));
-                if alpha > 0.0 { alpha * bsdf.pdf(wo, wi) + (1.0 - alpha) * p_grid } else { p_grid }
+                if alpha > 0.0 {
+                    alpha * bsdf.pdf(wo, wi) + (1.0 - alpha) * p_grid
+                } else {
+                    p_grid
+                }
             }
         }
     }
