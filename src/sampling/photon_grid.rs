@@ -14,14 +14,27 @@
 //! and the estimator's weight for a Lambertian surface f_r cos θ / p(ω) = ρ · Φ_total /
 //! (cells · Φ_c) is the paper's scaling factor s [eq. (11)].
 //!
-//! **Decision** (the paper only says empty cells get "a small fraction" of the energy): each
-//! empty cell receives ε · Φ_total / (number of empty cells), ε = 1 % by default, so no
-//! direction of the hemisphere has zero probability and the estimator stays unbiased. With no
-//! photon at all the grid is uniform, i.e. plain cosine sampling.
+//! Empty cells: the paper "eliminate[s] all regions with zero energy (probability) by adding a
+//! small fraction of the overall energy stored within the unit square to these regions". Two
+//! readings, both selectable ([`EmptyCells`]): the fraction ε of Φ_total is *shared* by all
+//! empty cells (the project digest's decision, `NOTES.md`), or *each* empty cell receives
+//! ε · Φ_total. Either way no direction of the hemisphere has zero probability, so the
+//! estimator stays unbiased. With no photon at all the grid is uniform, i.e. plain cosine
+//! sampling.
 
 use super::Distribution1D;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, TAU};
+
+/// How the energy given to empty cells is computed from ε.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EmptyCells {
+    /// All empty cells together receive ε · Φ_total.
+    Shared,
+    /// Every empty cell receives ε · Φ_total.
+    Each,
+}
 
 /// Jensen's piecewise-constant pdf over the cosine-warped hemisphere (local frame, +z = n).
 #[derive(Clone, Debug)]
@@ -50,9 +63,15 @@ fn cell_of(w: Vec3, m: usize, n: usize) -> usize {
 impl PhotonGrid {
     /// Builds the grid from photons given as (incoming direction in the local frame, reflected
     /// flux luminance f_r ΔΦ). Directions below the surface (z ≤ 0) and non-positive or
-    /// non-finite fluxes are ignored. `epsilon` is the share of the total flux spread over the
-    /// empty cells.
-    pub fn build(photons: impl IntoIterator<Item = (Vec3, f32)>, m: usize, n: usize, epsilon: f32) -> Self {
+    /// non-finite fluxes are ignored. `epsilon` is the fraction of the total flux given to empty
+    /// cells, as `empty` says.
+    pub fn build(
+        photons: impl IntoIterator<Item = (Vec3, f32)>,
+        m: usize,
+        n: usize,
+        epsilon: f32,
+        empty: EmptyCells,
+    ) -> Self {
         assert!(m > 0 && n > 0, "grid must have cells");
         let mut flux = vec![0.0f32; m * n];
         for (w, phi) in photons {
@@ -61,11 +80,15 @@ impl PhotonGrid {
             }
         }
         let total: f32 = flux.iter().sum();
+        let empty_cells = empty;
         let empty = flux.iter().filter(|&&f| f == 0.0).count();
         if total == 0.0 {
             flux.fill(1.0);
         } else if empty > 0 {
-            let share = epsilon.max(0.0) * total / empty as f32;
+            let share = match empty_cells {
+                EmptyCells::Shared => epsilon.max(0.0) * total / empty as f32,
+                EmptyCells::Each => epsilon.max(0.0) * total,
+            };
             // ε = 0 reproduces a grid that can miss directions: it is allowed (for studying the
             // bias) but then the pdf is zero there.
             flux.iter_mut().filter(|f| **f == 0.0).for_each(|f| *f = share);
@@ -131,7 +154,7 @@ mod tests {
     #[test]
     fn photon_grid_sampler_passes_chi2_against_its_pdf() {
         for (m, n, eps) in [(4, 16, 0.01), (2, 8, 0.1), (8, 32, 0.01)] {
-            let grid = PhotonGrid::build(photons(m as u64), m, n, eps);
+            let grid = PhotonGrid::build(photons(m as u64), m, n, eps, EmptyCells::Shared);
             let report = chi2_test_directions(
                 |rng: &mut Rng| Some(grid.sample(rng.uniform2())),
                 |w| grid.pdf(w),
@@ -143,7 +166,7 @@ mod tests {
 
     #[test]
     fn weight_is_jensens_scaling_factor() {
-        let grid = PhotonGrid::build(photons(1), 4, 16, 0.01);
+        let grid = PhotonGrid::build(photons(1), 4, 16, 0.01, EmptyCells::Each);
         let mut rng = Rng::for_task(2, [0, 0, 0]);
         let rho = 0.7;
         for _ in 0..100 {
@@ -158,7 +181,7 @@ mod tests {
 
     #[test]
     fn every_direction_keeps_a_positive_pdf() {
-        let grid = PhotonGrid::build(photons(3), 4, 16, 0.01);
+        let grid = PhotonGrid::build(photons(3), 4, 16, 0.01, EmptyCells::Shared);
         let mut rng = Rng::for_task(4, [0, 0, 0]);
         for _ in 0..1000 {
             let w = sample_uniform_hemisphere(rng.uniform2());
@@ -170,8 +193,20 @@ mod tests {
     }
 
     #[test]
+    fn each_empty_cell_gets_epsilon_of_the_total() {
+        let one = vec![(Vec3::new(0.0, 0.0, 1.0), 2.0)];
+        let grid = PhotonGrid::build(one, 4, 16, 0.01, EmptyCells::Each);
+        // One full cell with flux Φ, 63 empty cells with 0.01 Φ each.
+        let total = 1.0 + 63.0 * 0.01;
+        assert!((grid.cells.pmf(0) - 1.0 / total).abs() < 1e-6);
+        assert!((grid.cells.pmf(5) - 0.01 / total).abs() < 1e-6);
+        let shared = PhotonGrid::build(vec![(Vec3::Z, 2.0)], 4, 16, 0.01, EmptyCells::Shared);
+        assert!((shared.cells.pmf(5) - 0.01 / 63.0 / 1.01).abs() < 1e-7);
+    }
+
+    #[test]
     fn no_photons_gives_cosine_sampling() {
-        let grid = PhotonGrid::build(std::iter::empty(), 4, 16, 0.01);
+        let grid = PhotonGrid::build(std::iter::empty(), 4, 16, 0.01, EmptyCells::Each);
         let w = Vec3::new(0.3, 0.4, 0.866).normalize();
         assert!((grid.pdf(w) - w.z * FRAC_1_PI).abs() < 1e-6);
     }
@@ -179,7 +214,7 @@ mod tests {
     #[test]
     fn photons_below_the_surface_are_ignored() {
         let below = vec![(Vec3::new(0.0, 0.6, -0.8), 5.0)];
-        let grid = PhotonGrid::build(below, 4, 16, 0.01);
+        let grid = PhotonGrid::build(below, 4, 16, 0.01, EmptyCells::Shared);
         let w = Vec3::new(0.0, 0.6, 0.8);
         assert!((grid.pdf(w) - w.z * FRAC_1_PI).abs() < 1e-6, "uniform grid expected");
     }

@@ -12,8 +12,11 @@
 //!   seed, so the map is deterministic); the map keeps the first Np.
 //! - `nearest` (50): N, photons per pdf.
 //! - `grid` ([4, 16]): θ-intervals × φ-intervals.
-//! - `epsilon` (0.01): share of the total flux given to the empty cells together (the paper
-//!   says only "a small fraction"; see [`crate::sampling::photon_grid`]).
+//! - `epsilon` (0.01) and `empty_cells` (`"shared"`): the paper gives empty cells "a small
+//!   fraction of the overall energy"; `"shared"` splits ε · Φ_total among all empty cells (the
+//!   project digest's reading, the default), `"each"` gives ε · Φ_total to every empty cell
+//!   (the other reading). See [`crate::sampling::photon_grid`] and the README for how much
+//!   the choice matters.
 //! - `max_radius` (inf): the photons are searched within this distance (scene units); the paper
 //!   uses the N nearest without bound.
 //! - `bsdf_mixture` (0, beyond the paper): probability of sampling the BSDF instead of the
@@ -34,7 +37,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::photon::{CausticStorage, Neighbour, PhotonMap, TraceParams, trace_photons};
 use crate::sampling::Rng;
-use crate::sampling::photon_grid::PhotonGrid;
+use crate::sampling::photon_grid::{EmptyCells, PhotonGrid};
 use crate::scene::{Scene, SurfaceHit, luminance};
 use glam::Vec3;
 use serde::Deserialize;
@@ -51,6 +54,7 @@ pub struct PhotonGuidedParams {
     pub nearest: usize,
     pub grid: [usize; 2],
     pub epsilon: f32,
+    pub empty_cells: EmptyCells,
     pub max_radius: f32,
     pub bsdf_mixture: f32,
     pub max_depth: u32,
@@ -65,6 +69,7 @@ impl Default for PhotonGuidedParams {
             nearest: 50,
             grid: [4, 16],
             epsilon: 0.01,
+            empty_cells: EmptyCells::Shared,
             max_radius: f32::INFINITY,
             bsdf_mixture: 0.0,
             max_depth: 16,
@@ -174,6 +179,7 @@ impl Strategy for PhotonGuided {
             ("nearest", p.nearest.to_string()),
             ("grid", format!("{}x{}", p.grid[0], p.grid[1])),
             ("epsilon", p.epsilon.to_string()),
+            ("empty_cells", format!("{:?}", p.empty_cells).to_lowercase()),
             ("max_radius", p.max_radius.to_string()),
             ("bsdf_mixture", p.bsdf_mixture.to_string()),
             ("max_depth", p.max_depth.to_string()),
@@ -247,7 +253,8 @@ impl GridSampler<'_> {
                 let ph = &photons[nb.index as usize];
                 (mirror(hit.frame.to_local(ph.direction()), flip), luminance(ph.power()))
             });
-            PhotonGrid::build(dirs, self.params.grid[0], self.params.grid[1], self.params.epsilon)
+            let p = self.params;
+            PhotonGrid::build(dirs, p.grid[0], p.grid[1], p.epsilon, p.empty_cells)
         })
     }
 }
