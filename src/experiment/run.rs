@@ -160,7 +160,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
 
                     let image = film.image();
                     let m = metrics::compare(&image, &p.reference.image).map_err(|e| e.context(&p.scene.name))?;
-                    let stem = format!("{}_{}_seed{seed}_spp{spp}", p.scene.name, spec.label);
+                    let stem = format!("{}_{}_seed{seed}_spp{spp}", p.scene.name, spec.file_stem());
                     let exr = PathBuf::from("images").join(format!("{stem}.exr"));
                     write_exr(&image, &dir.join(&exr))?;
                     write_png(&image, &dir.join(exr.with_extension("png")), 0.0)?;
