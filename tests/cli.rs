@@ -100,6 +100,13 @@ fn reference_then_run_writes_a_complete_result_directory() {
         assert!(run.join(f).exists(), "{f}");
     }
 
+    let summary = std::fs::read_to_string(run.join("summary.md")).unwrap();
+    for text in ["### rel_mse", "95 % CI", "| uniform | 2 spp | 2 |"] {
+        assert!(summary.contains(text), "summary lacks {text:?}:\n{summary}");
+    }
+    let svg = std::fs::read_to_string(run.join("plots/tiny_mse_vs_spp.svg")).unwrap();
+    assert!(svg.contains("<polygon"), "CI bands are drawn");
+
     // A second run never overwrites the first.
     assert!(bench(root, &["run", "experiments/tiny.toml"]).status.success());
     assert_eq!(run_dirs(root).len(), 2);

@@ -115,6 +115,8 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
                     kind: strategy.kind().to_string(),
                     params,
                     seed,
+                    budget: crate::report::rows::BUDGET_SPP.to_string(),
+                    budget_value: 0.0,
                     spp: 0,
                     width: p.scene.camera.width,
                     height: p.scene.camera.height,
@@ -167,6 +169,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
                     let mean = image.mean();
                     let total_s = prep_s + render_s;
                     rows.push(Row {
+                        budget_value: spp as f64,
                         spp,
                         prep_s,
                         render_s,
@@ -195,7 +198,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
     bar.finish_and_clear();
     write_csv(&rows, &dir.join("metrics.csv"))?;
     crate::report::write_plots(&rows, dir)?;
-    crate::report::write_summary(exp, &rows, dir)
+    crate::report::write_summary(&exp.name, &exp.description, &rows, dir)
 }
 
 #[cfg(test)]

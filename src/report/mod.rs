@@ -4,5 +4,6 @@
 pub mod convergence;
 pub mod plot;
 pub mod rows;
+pub mod stats;
 
 pub use convergence::{write_plots, write_summary};
