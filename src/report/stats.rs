@@ -143,7 +143,8 @@ pub fn t_cdf(t: f64, df: f64) -> f64 {
 /// The `p` quantile of Student's t distribution with `df` degrees of freedom: the t with
 /// `t_cdf(t, df) = p`, found by bisection to machine precision.
 pub fn t_quantile(p: f64, df: f64) -> f64 {
-    if !(p > 0.0 && p < 1.0) || !(df > 0.0) {
+    let valid = p > 0.0 && p < 1.0 && df > 0.0;
+    if !valid {
         return f64::NAN;
     }
     let (mut lo, mut hi) = (-1.0f64, 1.0f64);
