@@ -183,3 +183,55 @@ fn bad_input_is_refused_before_anything_is_written() {
     );
     assert_refused(&bench(root, &["--threads", "0", "list"]), &["--threads"]);
 }
+
+#[test]
+fn sweeps_and_time_budgets_give_labelled_rows_and_spp_rows_are_deterministic() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let experiment = r#"
+scenes = ["../scenes/tiny.toml"]
+spp = [1, 2]
+seconds = [0.02, 0.05]
+seeds = 2
+[[strategy]]
+kind = "path"
+max_depth = [1, 3]
+"#;
+    std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
+    let mut runs = Vec::new();
+    for _ in 0..2 {
+        let o = bench(root, &["run", "experiments/tiny.toml"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let dir = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+        runs.push(photon_bench::report::rows::read_csv(&root.join(dir).join("metrics.csv")).unwrap());
+    }
+    let rows = &runs[0];
+    assert_eq!(rows.len(), 2 * 2 * (2 + 2), "strategies × seeds × checkpoints");
+    let labels: Vec<&str> = rows.iter().map(|r| r.strategy.as_str()).collect();
+    assert!(labels.contains(&"path[max_depth=1]") && labels.contains(&"path[max_depth=3]"));
+    for r in rows.iter().filter(|r| r.strategy == "path[max_depth=1]") {
+        assert!(r.params.contains("max_depth=1"), "{}", r.params);
+    }
+    let timed: Vec<_> = rows.iter().filter(|r| r.budget == "seconds").collect();
+    assert_eq!(timed.len(), 8);
+    for r in &timed {
+        assert!(r.spp >= 1 && r.total_s > 0.0);
+        assert!(r.budget_value == 0.02 || r.budget_value == 0.05);
+        // Passes go on until the budget is reached.
+        assert!(r.total_s >= r.budget_value, "{} < {}", r.total_s, r.budget_value);
+    }
+    // Equal samples: the same metrics bit for bit in every run.
+    let spp_rows = |rows: &[photon_bench::report::rows::Row]| -> Vec<(String, u64, u32, u64)> {
+        rows.iter()
+            .filter(|r| r.budget == "spp")
+            .map(|r| (r.strategy.clone(), r.seed, r.spp, r.mse.to_bits()))
+            .collect()
+    };
+    assert_eq!(spp_rows(&runs[0]), spp_rows(&runs[1]));
+    assert_eq!(spp_rows(&runs[0]).len(), 8);
+}

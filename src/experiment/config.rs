@@ -5,7 +5,8 @@
 //! name = "cornell"                 # results go to <output>/<name>/<run-id>/ (default: file stem)
 //! description = "…"                # optional, copied into the summary
 //! scenes = ["../scenes/cornell-empty.toml"]   # relative to this file
-//! spp = [1, 4, 16, 64]             # checkpoints: one CSV row per strategy × scene × seed × spp
+//! spp = [1, 4, 16, 64]             # equal samples: one CSV row per strategy × scene × seed × spp
+//! seconds = [0.5, 2]               # equal time (preparation included); spp, seconds or both
 //! seeds = 2                        # independent runs, seeds base_seed … base_seed + seeds − 1
 //! base_seed = 0                    # optional
 //! references = "../references"     # optional: where <scene name>.exr references live
@@ -39,6 +40,8 @@ use std::path::{Path, PathBuf};
 
 /// Largest accepted samples per pixel (a typo guard; references use `bench reference`).
 pub const MAX_SPP: u32 = 1 << 20;
+/// Largest accepted time budget, seconds.
+pub const MAX_SECONDS: f64 = 86_400.0;
 /// Largest accepted number of seeds.
 pub const MAX_SEEDS: u32 = 1000;
 
@@ -48,7 +51,10 @@ struct ExperimentFile {
     name: Option<String>,
     description: Option<String>,
     scenes: Vec<String>,
+    #[serde(default)]
     spp: Vec<u32>,
+    #[serde(default)]
+    seconds: Vec<f64>,
     #[serde(default = "one")]
     seeds: u32,
     #[serde(default)]
@@ -92,8 +98,11 @@ pub struct Experiment {
     pub name: String,
     pub description: String,
     pub scenes: Vec<PathBuf>,
-    /// Checkpoints, ascending and unique.
+    /// Equal-samples checkpoints, ascending and unique (may be empty).
     pub spp: Vec<u32>,
+    /// Equal-time checkpoints in seconds of preparation + rendering, ascending and unique (may
+    /// be empty, but not together with `spp`).
+    pub seconds: Vec<f64>,
     pub seeds: Vec<u64>,
     pub references: PathBuf,
     pub output: PathBuf,
@@ -125,9 +134,19 @@ impl Experiment {
         if raw.scenes.is_empty() {
             return Err(at("scenes: expected at least one scene file".into()));
         }
-        if raw.spp.is_empty() {
-            return Err(at("spp: expected a non-empty list of sample counts".into()));
+        if raw.spp.is_empty() && raw.seconds.is_empty() {
+            return Err(at(
+                "spp, seconds: expected a non-empty list of sample counts (spp) or time budgets (seconds)".into(),
+            ));
         }
+        if let Some(bad) = raw.seconds.iter().find(|&&s| !(s > 0.0 && s <= MAX_SECONDS)) {
+            return Err(at(format!(
+                "seconds: expected time budgets in (0, {MAX_SECONDS}], got {bad}"
+            )));
+        }
+        let mut seconds = raw.seconds.clone();
+        seconds.sort_by(f64::total_cmp);
+        seconds.dedup();
         if let Some(bad) = raw.spp.iter().find(|&&s| s == 0 || s > MAX_SPP) {
             return Err(at(format!("spp: expected sample counts in 1..={MAX_SPP}, got {bad}")));
         }
@@ -166,6 +185,7 @@ impl Experiment {
             description: raw.description.unwrap_or_default(),
             scenes: raw.scenes.iter().map(|s| join_clean(dir, s)).collect(),
             spp,
+            seconds,
             seeds,
             references: join_clean(dir, raw.references.as_deref().unwrap_or("../references")),
             output: join_clean(dir, raw.output.as_deref().unwrap_or("../results")),
@@ -347,6 +367,15 @@ mod tests {
     }
 
     #[test]
+    fn budgets_may_be_samples_time_or_both() {
+        let e = parse(&VALID.replace("spp = [4, 1, 4]", "seconds = [2, 0.5, 2]")).unwrap();
+        assert!(e.spp.is_empty());
+        assert_eq!(e.seconds, [0.5, 2.0]);
+        let e = parse(&VALID.replace("spp = [4, 1, 4]", "spp = [8]\nseconds = [1.5]")).unwrap();
+        assert_eq!((e.spp.as_slice(), e.seconds.as_slice()), (&[8][..], &[1.5][..]));
+    }
+
+    #[test]
     fn list_valued_parameters_expand_into_their_cartesian_product() {
         let text = VALID.replace(
             "max_depth = 3",
@@ -408,7 +437,11 @@ mod tests {
             ),
             (
                 VALID.replace("spp = [4, 1, 4]", "spp = []"),
-                "spp: expected a non-empty list",
+                "spp, seconds: expected a non-empty list",
+            ),
+            (
+                VALID.replace("spp = [4, 1, 4]", "seconds = [0.0]"),
+                "seconds: expected time budgets",
             ),
             (VALID.replace("seeds = 2", "seeds = 0"), "seeds: expected a count"),
             (VALID.replace("seeds = 2", "seedz = 2"), "unknown field `seedz`"),

@@ -1,17 +1,18 @@
-//! Runs an experiment: every scene × strategy × seed, rendered progressively through the spp
-//! checkpoints, each checkpoint compared with the scene's reference.
+//! Runs an experiment: every cell (scene × strategy × seed), rendered progressively through
+//! the equal-samples (`spp`) and equal-time (`seconds`) checkpoints, each checkpoint compared
+//! with the scene's reference.
 //!
 //! Everything that can be refused (the experiment file, scenes, references, strategy
 //! parameters) is checked before anything is written. A run renders into a hidden
 //! `<output>/<name>/.<run-id>.partial/` directory that is renamed to `<run-id>/` only when
 //! complete, so `results/` never shows half a run, and a new run never overwrites an old one.
 
-use super::config::Experiment;
+use super::config::{Experiment, MAX_SPP, StrategySpec};
 use super::reference::{self, Reference};
 use crate::error::{Context, Result};
-use crate::film::{Film, write_exr, write_png};
+use crate::film::{Film, write_error_png, write_exr, write_png};
 use crate::metrics;
-use crate::report::rows::{Row, write_csv};
+use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, write_csv};
 use crate::scene::{Scene, load_scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -90,107 +91,18 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
         ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let threads = rayon::current_num_threads();
-    let (git_revision, cpu) = (crate::util::git_revision(), crate::util::cpu_model());
+    let env = Environment {
+        run_id: run_id.to_string(),
+        threads: rayon::current_num_threads(),
+        git_revision: crate::util::git_revision(),
+        cpu: crate::util::cpu_model(),
+    };
     let mut rows = Vec::new();
     for p in prepared {
         for spec in &exp.strategies {
             for &seed in &exp.seeds {
                 bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
-                let mut strategy = spec.instantiate()?;
-                let params = strategy
-                    .params()
-                    .iter()
-                    .map(|(k, v)| format!("{k}={v}"))
-                    .collect::<Vec<_>>()
-                    .join(";");
-                let template = Row {
-                    experiment: exp.name.clone(),
-                    run_id: run_id.to_string(),
-                    scene: p.scene.name.clone(),
-                    scene_hash: p.scene.content_hash.clone(),
-                    reference_hash: p.reference.hash.clone(),
-                    reference_spp: p.reference.info.spp,
-                    strategy: spec.label.clone(),
-                    kind: strategy.kind().to_string(),
-                    params,
-                    seed,
-                    budget: crate::report::rows::BUDGET_SPP.to_string(),
-                    budget_value: 0.0,
-                    spp: 0,
-                    width: p.scene.camera.width,
-                    height: p.scene.camera.height,
-                    threads,
-                    git_revision: git_revision.clone(),
-                    cpu: cpu.clone(),
-                    prep_s: 0.0,
-                    render_s: 0.0,
-                    total_s: 0.0,
-                    phases: String::new(),
-                    non_finite: 0,
-                    mse: 0.0,
-                    rmse: 0.0,
-                    rel_mse: 0.0,
-                    mse_trimmed: 0.0,
-                    rel_mse_trimmed: 0.0,
-                    rms_rel_lum: 0.0,
-                    rms_rel_lum_excluded: 0,
-                    efficiency: 0.0,
-                    mean_r: 0.0,
-                    mean_g: 0.0,
-                    mean_b: 0.0,
-                    image: String::new(),
-                };
-
-                let start = Instant::now();
-                let phases = strategy.prepare(&p.scene, seed)?;
-                let prep_s = start.elapsed().as_secs_f64();
-                let phases = phases
-                    .iter()
-                    .map(|ph| format!("{}={:.6}", ph.name, ph.seconds))
-                    .collect::<Vec<_>>()
-                    .join(";");
-
-                let mut film = Film::new(p.scene.camera.width, p.scene.camera.height);
-                let mut render_s = 0.0;
-                let mut done = 0u32;
-                for &spp in &exp.spp {
-                    let t = Instant::now();
-                    strategy.render_pass(&p.scene, seed, done..spp, &mut film);
-                    render_s += t.elapsed().as_secs_f64();
-                    done = spp;
-
-                    let image = film.image();
-                    let m = metrics::compare(&image, &p.reference.image).map_err(|e| e.context(&p.scene.name))?;
-                    let stem = format!("{}_{}_seed{seed}_spp{spp}", p.scene.name, spec.file_stem());
-                    let exr = PathBuf::from("images").join(format!("{stem}.exr"));
-                    write_exr(&image, &dir.join(&exr))?;
-                    write_png(&image, &dir.join(exr.with_extension("png")), 0.0)?;
-                    let mean = image.mean();
-                    let total_s = prep_s + render_s;
-                    rows.push(Row {
-                        budget_value: spp as f64,
-                        spp,
-                        prep_s,
-                        render_s,
-                        total_s,
-                        phases: phases.clone(),
-                        non_finite: film.non_finite(),
-                        mse: m.mse,
-                        rmse: m.rmse,
-                        rel_mse: m.rel_mse,
-                        mse_trimmed: m.mse_trimmed,
-                        rel_mse_trimmed: m.rel_mse_trimmed,
-                        rms_rel_lum: m.rms_rel_lum,
-                        rms_rel_lum_excluded: m.rms_rel_lum_excluded,
-                        efficiency: metrics::efficiency(m.mse, total_s),
-                        mean_r: mean.x as f64,
-                        mean_g: mean.y as f64,
-                        mean_b: mean.z as f64,
-                        image: exr.display().to_string(),
-                        ..template.clone()
-                    });
-                }
+                rows.extend(render_cell(exp, p, spec, seed, &env, dir)?);
                 bar.inc(1);
             }
         }
@@ -199,6 +111,182 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
     write_csv(&rows, &dir.join("metrics.csv"))?;
     crate::report::write_plots(&rows, dir)?;
     crate::report::write_summary(&exp.name, &exp.description, &rows, dir)
+}
+
+/// What every row of a run records about the machine and the run.
+struct Environment {
+    run_id: String,
+    threads: usize,
+    git_revision: String,
+    cpu: String,
+}
+
+/// One checkpoint's image, written into `dir/images/` (EXR, sRGB PNG and false-colour error
+/// PNG), and its row.
+struct Checkpoint<'a> {
+    dir: &'a Path,
+    stem: String,
+    template: &'a Row,
+    reference: &'a Reference,
+    scene: &'a str,
+}
+
+impl Checkpoint<'_> {
+    fn record(&self, film: &Film, spp: u32, prep_s: f64, render_s: f64) -> Result<Row> {
+        let image = film.image();
+        let m = metrics::compare(&image, &self.reference.image).map_err(|e| e.context(self.scene))?;
+        let exr = PathBuf::from("images").join(format!("{}.exr", self.stem));
+        write_exr(&image, &self.dir.join(&exr))?;
+        write_png(&image, &self.dir.join(exr.with_extension("png")), 0.0)?;
+        let error_png = PathBuf::from("images").join(format!("{}_error.png", self.stem));
+        write_error_png(&image, &self.reference.image, &self.dir.join(error_png))?;
+        let mean = image.mean();
+        let total_s = prep_s + render_s;
+        Ok(Row {
+            spp,
+            prep_s,
+            render_s,
+            total_s,
+            non_finite: film.non_finite(),
+            mse: m.mse,
+            rmse: m.rmse,
+            rel_mse: m.rel_mse,
+            mse_trimmed: m.mse_trimmed,
+            rel_mse_trimmed: m.rel_mse_trimmed,
+            rms_rel_lum: m.rms_rel_lum,
+            rms_rel_lum_excluded: m.rms_rel_lum_excluded,
+            efficiency: metrics::efficiency(m.mse, total_s),
+            mean_r: mean.x as f64,
+            mean_g: mean.y as f64,
+            mean_b: mean.z as f64,
+            image: exr.display().to_string(),
+            ..self.template.clone()
+        })
+    }
+}
+
+/// Renders one cell (scene × strategy × seed) through every budget and writes its images into
+/// `dir/images/`; returns its rows, equal-samples checkpoints first.
+///
+/// Equal samples: one progressive render through the `spp` checkpoints. Equal time: the same
+/// prepared strategy renders a fresh film in passes of doubling size (1, 2, 4 … samples), each
+/// pass capped to what the measured throughput predicts fits in the time left, until
+/// preparation + rendering reaches each `seconds` budget; every checkpoint has at least one
+/// sample, so a preparation longer than the budget shows as `total_s` above it.
+fn render_cell(
+    exp: &Experiment,
+    p: &Prepared,
+    spec: &StrategySpec,
+    seed: u64,
+    env: &Environment,
+    dir: &Path,
+) -> Result<Vec<Row>> {
+    let mut strategy = spec.instantiate()?;
+    let params = strategy
+        .params()
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(";");
+    let start = Instant::now();
+    let phases = strategy.prepare(&p.scene, seed)?;
+    let prep_s = start.elapsed().as_secs_f64();
+    let phases = phases
+        .iter()
+        .map(|ph| format!("{}={:.6}", ph.name, ph.seconds))
+        .collect::<Vec<_>>()
+        .join(";");
+    let mut template = Row {
+        experiment: exp.name.clone(),
+        run_id: env.run_id.clone(),
+        scene: p.scene.name.clone(),
+        scene_hash: p.scene.content_hash.clone(),
+        reference_hash: p.reference.hash.clone(),
+        reference_spp: p.reference.info.spp,
+        strategy: spec.label.clone(),
+        kind: strategy.kind().to_string(),
+        params,
+        seed,
+        budget: BUDGET_SPP.to_string(),
+        budget_value: 0.0,
+        spp: 0,
+        width: p.scene.camera.width,
+        height: p.scene.camera.height,
+        threads: env.threads,
+        git_revision: env.git_revision.clone(),
+        cpu: env.cpu.clone(),
+        prep_s,
+        render_s: 0.0,
+        total_s: 0.0,
+        phases,
+        non_finite: 0,
+        mse: 0.0,
+        rmse: 0.0,
+        rel_mse: 0.0,
+        mse_trimmed: 0.0,
+        rel_mse_trimmed: 0.0,
+        rms_rel_lum: 0.0,
+        rms_rel_lum_excluded: 0,
+        efficiency: 0.0,
+        mean_r: 0.0,
+        mean_g: 0.0,
+        mean_b: 0.0,
+        image: String::new(),
+    };
+    let (width, height) = (p.scene.camera.width, p.scene.camera.height);
+    let stem = format!("{}_{}_seed{seed}", p.scene.name, spec.file_stem());
+    let mut rows = Vec::new();
+
+    // Equal samples: checkpoints of one progressive render.
+    let mut film = Film::new(width, height);
+    let (mut render_s, mut done) = (0.0, 0u32);
+    for &spp in &exp.spp {
+        let t = Instant::now();
+        strategy.render_pass(&p.scene, seed, done..spp, &mut film);
+        render_s += t.elapsed().as_secs_f64();
+        done = spp;
+        template.budget_value = spp as f64;
+        let checkpoint = Checkpoint {
+            dir,
+            stem: format!("{stem}_spp{spp}"),
+            template: &template,
+            reference: &p.reference,
+            scene: &p.scene.name,
+        };
+        rows.push(checkpoint.record(&film, spp, prep_s, render_s)?);
+    }
+
+    // Equal time: doubling passes until each budget.
+    template.budget = BUDGET_SECONDS.to_string();
+    let mut film = Film::new(width, height);
+    let (mut render_s, mut done, mut pass) = (0.0f64, 0u32, 1u32);
+    for &budget in &exp.seconds {
+        while done == 0 || (prep_s + render_s < budget && done < MAX_SPP) {
+            let left_s = budget - prep_s - render_s;
+            let per_sample_s = if done > 0 { render_s / done as f64 } else { 0.0 };
+            let fits = if per_sample_s > 0.0 {
+                (left_s / per_sample_s).clamp(1.0, u32::MAX as f64) as u32
+            } else {
+                u32::MAX
+            };
+            let n = pass.min(fits).min(MAX_SPP - done).max(1);
+            let t = Instant::now();
+            strategy.render_pass(&p.scene, seed, done..done + n, &mut film);
+            render_s += t.elapsed().as_secs_f64();
+            done += n;
+            pass = pass.saturating_mul(2);
+        }
+        template.budget_value = budget;
+        let checkpoint = Checkpoint {
+            dir,
+            stem: format!("{stem}_t{budget}s"),
+            template: &template,
+            reference: &p.reference,
+            scene: &p.scene.name,
+        };
+        rows.push(checkpoint.record(&film, done, prep_s, render_s)?);
+    }
+    Ok(rows)
 }
 
 #[cfg(test)]
