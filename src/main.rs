@@ -29,6 +29,9 @@ enum Command {
     Run {
         /// The experiment file, e.g. experiments/cornell.toml.
         experiment: PathBuf,
+        /// Render every cell again instead of reusing cached cells (and replace the cache).
+        #[arg(long)]
+        force: bool,
     },
     /// Render a converged reference image of a scene with `path` into references/.
     Reference {
@@ -96,10 +99,11 @@ fn run(cli: Cli) -> Result<()> {
             .map_err(|e| Error::new(e.to_string()))?;
     }
     match cli.command {
-        Command::Run { experiment } => {
+        Command::Run { experiment, force } => {
             let exp = Experiment::load(&experiment)?;
-            let dir = experiment::run(&exp)?;
-            println!("{}", dir.display());
+            let outcome = experiment::run(&exp, force)?;
+            eprintln!("cells: {} cached, {} rendered", outcome.cached, outcome.rendered);
+            println!("{}", outcome.dir.display());
             Ok(())
         }
         Command::Reference {

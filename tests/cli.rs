@@ -54,9 +54,21 @@ fn assert_refused(o: &Output, expected: &[&str]) {
     }
 }
 
+/// Entries of `results/tiny/` besides the cell cache: run directories and partial runs.
 fn run_dirs(root: &Path) -> Vec<PathBuf> {
     match std::fs::read_dir(root.join("results/tiny")) {
-        Ok(d) => d.map(|e| e.unwrap().path()).collect(),
+        Ok(d) => d.map(|e| e.unwrap().path()).filter(|p| !p.ends_with("cells")).collect(),
+        Err(_) => Vec::new(),
+    }
+}
+
+/// Completed cells in the cache (hidden temporaries left out).
+fn cached_cells(root: &Path) -> Vec<PathBuf> {
+    match std::fs::read_dir(root.join("results/tiny/cells")) {
+        Ok(d) => d
+            .map(|e| e.unwrap().path())
+            .filter(|p| !p.file_name().unwrap().to_string_lossy().starts_with('.'))
+            .collect(),
         Err(_) => Vec::new(),
     }
 }
@@ -107,9 +119,12 @@ fn reference_then_run_writes_a_complete_result_directory() {
     let svg = std::fs::read_to_string(run.join("plots/tiny_mse_vs_spp.svg")).unwrap();
     assert!(svg.contains("<polygon"), "CI bands are drawn");
 
-    // A second run never overwrites the first.
-    assert!(bench(root, &["run", "experiments/tiny.toml"]).status.success());
+    // A second run never overwrites the first; it takes every cell from the cache.
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert!(o.status.success());
+    assert!(stderr(&o).contains("cells: 4 cached, 0 rendered"), "{}", stderr(&o));
     assert_eq!(run_dirs(root).len(), 2);
+    assert_eq!(cached_cells(root).len(), 4);
 }
 
 #[test]
@@ -234,4 +249,88 @@ max_depth = [1, 3]
     };
     assert_eq!(spp_rows(&runs[0]), spp_rows(&runs[1]));
     assert_eq!(spp_rows(&runs[0]).len(), 8);
+}
+
+#[test]
+fn a_killed_run_resumes_from_its_cached_cells_with_identical_results() {
+    let p = project();
+    let root = p.path();
+    let scene = std::fs::read_to_string(root.join("scenes/tiny.toml")).unwrap();
+    std::fs::write(
+        root.join("scenes/tiny.toml"),
+        scene.replace("resolution = [16, 12]", "resolution = [48, 36]"),
+    )
+    .unwrap();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let experiment = "scenes = [\"../scenes/tiny.toml\"]\nspp = [1, 128]\nseeds = 3\n\
+        [[strategy]]\nkind = \"path\"\n[[strategy]]\nkind = \"path\"\nlabel = \"uniform\"\nbsdf_sampling = \"uniform\"\n";
+    std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
+
+    // Kill (SIGKILL) the run as soon as its first cell is cached.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bench"))
+        .current_dir(root)
+        .args(["--threads", "1", "run", "experiments/tiny.toml"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while cached_cells(root).is_empty() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before a cell was cached"
+        );
+        assert!(started.elapsed().as_secs() < 120, "no cell cached in two minutes");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let cached = cached_cells(root).len();
+    assert!((1..6).contains(&cached), "{cached} of 6 cells cached when killed");
+    // No finished run, and every cached cell is complete.
+    assert!(
+        run_dirs(root)
+            .iter()
+            .all(|d| d.file_name().unwrap().to_string_lossy().ends_with(".partial"))
+    );
+    for cell in cached_cells(root) {
+        let rows = photon_bench::report::rows::read_csv(&cell.join("rows.csv")).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert!(rows.iter().all(|r| cell.join(&r.image).exists()));
+    }
+
+    // Running again renders only the missing cells ...
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let msg = format!("cells: {cached} cached, {} rendered", 6 - cached);
+    assert!(stderr(&o).contains(&msg), "expected {msg:?} in {}", stderr(&o));
+    let resumed = root.join(String::from_utf8_lossy(&o.stdout).trim());
+    // ... and gives the metrics of a run from scratch, bit for bit.
+    let o = bench(root, &["run", "--force", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cells: 0 cached, 6 rendered"), "{}", stderr(&o));
+    let fresh = root.join(String::from_utf8_lossy(&o.stdout).trim());
+    let key = |dir: &Path| -> Vec<(String, u64, u32, [u64; 3])> {
+        photon_bench::report::rows::read_csv(&dir.join("metrics.csv"))
+            .unwrap()
+            .iter()
+            .map(|r| {
+                (
+                    r.strategy.clone(),
+                    r.seed,
+                    r.spp,
+                    [r.mse.to_bits(), r.rel_mse.to_bits(), r.mean_r.to_bits()],
+                )
+            })
+            .collect()
+    };
+    assert_eq!(key(&resumed).len(), 12);
+    assert_eq!(key(&resumed), key(&fresh));
+    for r in photon_bench::report::rows::read_csv(&resumed.join("metrics.csv")).unwrap() {
+        assert!(resumed.join(&r.image).exists(), "{}", r.image);
+    }
 }

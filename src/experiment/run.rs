@@ -3,7 +3,14 @@
 //! with the scene's reference.
 //!
 //! Everything that can be refused (the experiment file, scenes, references, strategy
-//! parameters) is checked before anything is written. A run renders into a hidden
+//! parameters) is checked before anything is written.
+//!
+//! Cells are cached: each completed cell's rows and images go to
+//! `<output>/<name>/cells/<hash>/`, written into a hidden temporary directory and renamed into
+//! place, so a cell is either complete or absent even when the process is killed. The hash
+//! ([`cell_hash`]) covers everything the cell's results depend on; a later run of the same
+//! experiment reuses cached cells instead of rendering them again (unless `force`), so a killed
+//! run is resumed by running it again. A run renders into a hidden
 //! `<output>/<name>/.<run-id>.partial/` directory that is renamed to `<run-id>/` only when
 //! complete, so `results/` never shows half a run, and a new run never overwrites an old one.
 
@@ -12,7 +19,7 @@ use super::reference::{self, Reference};
 use crate::error::{Context, Result};
 use crate::film::{Film, write_error_png, write_exr, write_png};
 use crate::metrics;
-use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, write_csv};
+use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, read_csv, write_csv};
 use crate::scene::{Scene, load_scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -24,8 +31,20 @@ struct Prepared {
     reference: Reference,
 }
 
-/// Runs `exp` and returns the directory holding its results.
-pub fn run(exp: &Experiment) -> Result<PathBuf> {
+/// What a run did.
+#[derive(Debug)]
+pub struct Outcome {
+    /// The run directory.
+    pub dir: PathBuf,
+    /// Cells taken from the cache.
+    pub cached: usize,
+    /// Cells rendered (and cached).
+    pub rendered: usize,
+}
+
+/// Runs `exp` and returns the directory holding its results. Cached cells are reused unless
+/// `force`, which renders every cell again and replaces its cache entry.
+pub fn run(exp: &Experiment, force: bool) -> Result<Outcome> {
     // Refuse bad input before anything is written.
     let mut prepared = Vec::new();
     for path in &exp.scenes {
@@ -39,12 +58,110 @@ pub fn run(exp: &Experiment) -> Result<PathBuf> {
     let partial = base.join(format!(".{run_id}.partial"));
     let final_dir = base.join(&run_id);
     std::fs::create_dir_all(partial.join("images")).context(partial.display())?;
-    let result = run_into(exp, &prepared, &run_id, &partial)
-        .and_then(|()| std::fs::rename(&partial, &final_dir).context(final_dir.display()));
+    let result = run_into(exp, &prepared, &run_id, &partial, force).and_then(|counts| {
+        std::fs::rename(&partial, &final_dir)
+            .context(final_dir.display())
+            .map(|()| counts)
+    });
     if result.is_err() {
         let _ = std::fs::remove_dir_all(&partial);
     }
-    result.map(|()| final_dir)
+    result.map(|(cached, rendered)| Outcome {
+        dir: final_dir,
+        cached,
+        rendered,
+    })
+}
+
+/// Identifies the binary for cell hashes: the package version and a hash of the executable,
+/// so that any rebuild with changed code invalidates the cache.
+fn binary_id() -> &'static str {
+    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ID.get_or_init(|| {
+        let exe = std::env::current_exe()
+            .and_then(std::fs::read)
+            .map(|bytes| crate::util::content_hash(&[&bytes]))
+            .unwrap_or_else(|_| "unknown".to_string());
+        format!("{}+{exe}", env!("CARGO_PKG_VERSION"))
+    })
+}
+
+/// The content hash of a cell: the strategy's label, kind and every parameter (defaults
+/// included), the budgets, the seed, the scene's name and hash, the reference's hash and the
+/// binary ([`binary_id`]). The experiment's name, description and other cells do not enter.
+pub fn cell_hash(
+    exp: &Experiment,
+    scene: &Scene,
+    reference: &Reference,
+    spec: &StrategySpec,
+    params: &str,
+    seed: u64,
+) -> String {
+    let spp = format!("{:?}", exp.spp);
+    let seconds = format!("{:?}", exp.seconds.iter().map(|s| s.to_bits()).collect::<Vec<_>>());
+    crate::util::content_hash(&[
+        b"photon-bench cell v1",
+        spec.label.as_bytes(),
+        spec.kind.as_bytes(),
+        params.as_bytes(),
+        spp.as_bytes(),
+        seconds.as_bytes(),
+        &seed.to_le_bytes(),
+        scene.name.as_bytes(),
+        scene.content_hash.as_bytes(),
+        reference.hash.as_bytes(),
+        binary_id().as_bytes(),
+    ])
+}
+
+/// The rows of a cached cell, or `None` when it is absent or unreadable.
+fn load_cell(cell: &Path) -> Option<Vec<Row>> {
+    let rows = read_csv(&cell.join("rows.csv")).ok()?;
+    rows.iter().all(|r| cell.join(&r.image).exists()).then_some(rows)
+}
+
+/// Renders a cell into `<cells>/.tmp-<hash>-<pid>/` and renames it to `<cells>/<hash>/`.
+fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec<Row>>) -> Result<Vec<Row>> {
+    let tmp = cells.join(format!(".tmp-{hash}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(tmp.join("images")).context(tmp.display())?;
+    let result = render(&tmp).and_then(|rows| {
+        write_csv(&rows, &tmp.join("rows.csv"))?;
+        let target = cells.join(hash);
+        if target.exists() {
+            // Replaced on --force (or written meanwhile by a concurrent run).
+            std::fs::remove_dir_all(&target).context(target.display())?;
+        }
+        std::fs::rename(&tmp, &target).context(target.display())?;
+        Ok(rows)
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+    result
+}
+
+/// Links (or copies, across file systems) a cell's images into the run directory.
+fn link_images(cell: &Path, rows: &[Row], dir: &Path) -> Result<()> {
+    for r in rows {
+        let exr = PathBuf::from(&r.image);
+        let stem = exr
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let siblings = [
+            exr.clone(),
+            exr.with_extension("png"),
+            exr.with_file_name(format!("{stem}_error.png")),
+        ];
+        for rel in siblings {
+            let (from, to) = (cell.join(&rel), dir.join(&rel));
+            if std::fs::hard_link(&from, &to).is_err() {
+                std::fs::copy(&from, &to).context(from.display())?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A run id that sorts by time and never collides with an earlier run in `base`.
@@ -84,7 +201,8 @@ fn utc_stamp(secs: u64) -> String {
     )
 }
 
-fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -> Result<()> {
+/// Renders (or takes from the cache) every cell into `dir`; returns (cached, rendered) counts.
+fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, force: bool) -> Result<(usize, usize)> {
     std::fs::write(dir.join("experiment.toml"), &exp.text).context(dir.display())?;
     let cells = prepared.len() * exp.strategies.len() * exp.seeds.len();
     let bar = ProgressBar::new(cells as u64).with_style(
@@ -97,12 +215,31 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
         git_revision: crate::util::git_revision(),
         cpu: crate::util::cpu_model(),
     };
-    let mut rows = Vec::new();
+    let cells_dir = exp.output.join(&exp.name).join("cells");
+    let (mut rows, mut cached, mut rendered) = (Vec::new(), 0, 0);
     for p in prepared {
         for spec in &exp.strategies {
+            let params = param_string(spec)?;
             for &seed in &exp.seeds {
                 bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
-                rows.extend(render_cell(exp, p, spec, seed, &env, dir)?);
+                let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+                let cell = cells_dir.join(&hash);
+                let mut cell_rows = match load_cell(&cell).filter(|_| !force) {
+                    Some(r) => {
+                        cached += 1;
+                        r
+                    }
+                    None => {
+                        rendered += 1;
+                        store_cell(&cells_dir, &hash, |tmp| render_cell(exp, p, spec, seed, &env, tmp))?
+                    }
+                };
+                link_images(&cell, &cell_rows, dir)?;
+                for r in &mut cell_rows {
+                    r.experiment = exp.name.clone();
+                    r.run_id = run_id.to_string();
+                }
+                rows.extend(cell_rows);
                 bar.inc(1);
             }
         }
@@ -110,7 +247,19 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -
     bar.finish_and_clear();
     write_csv(&rows, &dir.join("metrics.csv"))?;
     crate::report::write_plots(&rows, dir)?;
-    crate::report::write_summary(&exp.name, &exp.description, &rows, dir)
+    crate::report::write_summary(&exp.name, &exp.description, &rows, dir)?;
+    Ok((cached, rendered))
+}
+
+/// Every parameter of a strategy as `key=value;…`, defaults included.
+fn param_string(spec: &StrategySpec) -> Result<String> {
+    Ok(spec
+        .instantiate()?
+        .params()
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(";"))
 }
 
 /// What every row of a run records about the machine and the run.
@@ -182,12 +331,7 @@ fn render_cell(
     dir: &Path,
 ) -> Result<Vec<Row>> {
     let mut strategy = spec.instantiate()?;
-    let params = strategy
-        .params()
-        .iter()
-        .map(|(k, v)| format!("{k}={v}"))
-        .collect::<Vec<_>>()
-        .join(";");
+    let params = param_string(spec)?;
     let start = Instant::now();
     let phases = strategy.prepare(&p.scene, seed)?;
     let prep_s = start.elapsed().as_secs_f64();
