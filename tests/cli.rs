@@ -118,6 +118,21 @@ fn reference_then_run_writes_a_complete_result_directory() {
     }
     let svg = std::fs::read_to_string(run.join("plots/tiny_mse_vs_spp.svg")).unwrap();
     assert!(svg.contains("<polygon"), "CI bands are drawn");
+    for f in [
+        "plots/tiny_mse_equal_spp.svg",
+        "plots/tiny_timing.png",
+        "images/tiny_strip_spp2.png",
+        "images/tiny_uniform_seed1_spp1_error.png",
+    ] {
+        assert!(run.join(f).exists(), "{f}");
+    }
+    let strip = image::open(run.join("images/tiny_strip_spp2.png")).unwrap();
+    assert_eq!(
+        (strip.width(), strip.height()),
+        (3 * 16 + 2 * 2, 12),
+        "two strategies and the reference"
+    );
+    assert_offline_page(run);
 
     // A second run never overwrites the first; it takes every cell from the cache.
     let o = bench(root, &["run", "experiments/tiny.toml"]);
@@ -125,6 +140,24 @@ fn reference_then_run_writes_a_complete_result_directory() {
     assert!(stderr(&o).contains("cells: 4 cached, 0 rendered"), "{}", stderr(&o));
     assert_eq!(run_dirs(root).len(), 2);
     assert_eq!(cached_cells(root).len(), 4);
+}
+
+/// `index.html` loads nothing from outside the run directory and every link resolves.
+fn assert_offline_page(run: &Path) {
+    let html = std::fs::read_to_string(run.join("index.html")).unwrap();
+    assert!(
+        !html.contains("http:") && !html.contains("https:") && !html.contains("//"),
+        "{html}"
+    );
+    let mut links = 0;
+    for attr in ["src=\"", "href=\""] {
+        for part in html.split(attr).skip(1) {
+            let link = &part[..part.find('"').unwrap()];
+            assert!(run.join(link).exists(), "broken link {link}");
+            links += 1;
+        }
+    }
+    assert!(links > 10, "{links} links");
 }
 
 #[test]

@@ -17,7 +17,7 @@
 use super::config::{Experiment, MAX_SPP, StrategySpec};
 use super::reference::{self, Reference};
 use crate::error::{Context, Result};
-use crate::film::{Film, write_error_png, write_exr, write_png};
+use crate::film::{Film, image_strip, read_exr, write_error_png, write_exr, write_png};
 use crate::metrics;
 use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, read_csv, write_csv};
 use crate::scene::{Scene, load_scene};
@@ -246,9 +246,45 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
     }
     bar.finish_and_clear();
     write_csv(&rows, &dir.join("metrics.csv"))?;
+    write_strips(exp, prepared, &rows, dir)?;
     crate::report::write_plots(&rows, dir)?;
     crate::report::write_summary(&exp.name, &exp.description, &rows, dir)?;
+    crate::report::html::write_index(&rows, dir)?;
     Ok((cached, rendered))
+}
+
+/// Per scene, at the largest spp checkpoint and at the largest time budget: the first seed's
+/// image of every strategy side by side, then the reference ([`crate::report::html::strip_path`]).
+fn write_strips(exp: &Experiment, prepared: &[Prepared], rows: &[Row], dir: &Path) -> Result<()> {
+    let Some(&seed) = exp.seeds.first() else { return Ok(()) };
+    let checkpoints = [
+        (BUDGET_SPP, exp.spp.last().map(|&s| s as f64)),
+        (BUDGET_SECONDS, exp.seconds.last().copied()),
+    ];
+    for p in prepared {
+        for (budget, value) in checkpoints {
+            let Some(value) = value else { continue };
+            let mut images = Vec::new();
+            for spec in &exp.strategies {
+                let row = rows.iter().find(|r| {
+                    r.scene == p.scene.name
+                        && r.strategy == spec.label
+                        && r.seed == seed
+                        && r.budget == budget
+                        && r.budget_value == value
+                });
+                if let Some(r) = row {
+                    images.push(read_exr(&dir.join(&r.image))?);
+                }
+            }
+            let mut all: Vec<&crate::film::Image> = images.iter().collect();
+            all.push(&p.reference.image);
+            let strip = image_strip(&all, 2);
+            let path = dir.join(crate::report::html::strip_path(&p.scene.name, budget, value));
+            write_png(&strip, &path, 0.0)?;
+        }
+    }
+    Ok(())
 }
 
 /// Every parameter of a strategy as `key=value;…`, defaults included.

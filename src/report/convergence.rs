@@ -1,6 +1,7 @@
 //! Convergence plots and the run summary, drawn from result rows alone (so they can be
 //! redrawn from `metrics.csv`).
 
+use super::bars::{Bar, Stack, bar_chart, stacked_bar_chart};
 use super::plot::{Series, log_log_plot};
 use super::rows::{BUDGET_SECONDS, BUDGET_SPP, Group, METRICS, Row, distinct, group};
 use super::stats::{CONFIDENCE, Summary};
@@ -37,12 +38,12 @@ fn series(curves: Curves, suffix: &str) -> Vec<Series> {
         .collect()
 }
 
-/// For each scene, MSE vs spp and MSE vs seconds (log-log, mean over seeds with its
+/// Every plot of a run, from its rows alone. For each scene, MSE vs spp and MSE vs seconds (log-log, mean over seeds with its
 /// [`CONFIDENCE`] interval as a band, its lower end clipped to [`BAND_FLOOR`] × the mean, one
 /// line per strategy) as
 /// `plots/<scene>_mse_vs_spp.{svg,png}` and `plots/<scene>_mse_vs_time.{svg,png}`. Equal-time
 /// checkpoints join the time plot as their own lines, marked "(time budget)"; a plot without
-/// any point is left out.
+/// any point is left out. Then the bar charts of [`write_bar_charts`].
 pub fn write_plots(rows: &[Row], dir: &Path) -> Result<()> {
     let plots = dir.join("plots");
     std::fs::create_dir_all(&plots).context(plots.display())?;
@@ -80,8 +81,112 @@ pub fn write_plots(rows: &[Row], dir: &Path) -> Result<()> {
                 &plots.join(format!("{scene}_mse_vs_time")),
             )?;
         }
+        write_bar_charts(scene, &groups, &plots)?;
     }
     Ok(())
+}
+
+/// The groups of `scene` at its largest checkpoint of `budget`, if it has any.
+fn at_largest<'g, 'a>(scene: &str, groups: &'g [Group<'a>], budget: &str) -> Vec<&'g Group<'a>> {
+    let of_budget = || groups.iter().filter(|g| g.scene == scene && g.budget == budget);
+    let Some(largest) = of_budget().map(|g| g.budget_value).reduce(f64::max) else {
+        return Vec::new();
+    };
+    of_budget().filter(|g| g.budget_value == largest).collect()
+}
+
+/// The preparation phases of a row: `name=seconds;…` parsed (unreadable entries skipped).
+pub fn phases(row: &Row) -> Vec<(&str, f64)> {
+    row.phases
+        .split(';')
+        .filter_map(|p| p.split_once('='))
+        .filter_map(|(name, s)| s.parse().ok().map(|s| (name, s)))
+        .collect()
+}
+
+/// Bar charts of `scene`: mean MSE per strategy with [`CONFIDENCE`] error bars at the largest
+/// time budget (`<scene>_mse_equal_time`) and at the largest spp checkpoint
+/// (`<scene>_mse_equal_spp`), and the time per phase, stacked, at the largest spp checkpoint
+/// (else the largest time budget) (`<scene>_timing`).
+fn write_bar_charts(scene: &str, groups: &[Group], plots: &Path) -> Result<()> {
+    for (budget, file, what) in [
+        (BUDGET_SECONDS, "mse_equal_time", "equal time"),
+        (BUDGET_SPP, "mse_equal_spp", "equal samples"),
+    ] {
+        let at = at_largest(scene, groups, budget);
+        let Some(first) = at.first() else { continue };
+        let bars: Vec<Bar> = at
+            .iter()
+            .map(|g| {
+                let s = Summary::of(&g.values(|r| r.mse));
+                Bar {
+                    label: g.strategy.to_string(),
+                    value: s.mean,
+                    error: s.ci,
+                }
+            })
+            .collect();
+        bar_chart(
+            &format!(
+                "{scene}: MSE at {what}, {} (mean, {:.0} % CI)",
+                first.budget_label(),
+                CONFIDENCE * 100.0
+            ),
+            "MSE",
+            &bars,
+            &plots.join(format!("{scene}_{file}")),
+        )?;
+    }
+
+    let mut at = at_largest(scene, groups, BUDGET_SPP);
+    if at.is_empty() {
+        at = at_largest(scene, groups, BUDGET_SECONDS);
+    }
+    let Some(first) = at.first() else { return Ok(()) };
+    let mut names: Vec<String> = Vec::new();
+    for g in &at {
+        for r in &g.rows {
+            for (name, _) in phases(r) {
+                if !names.iter().any(|n| n == name) {
+                    names.push(name.to_string());
+                }
+            }
+        }
+    }
+    names.push("render".to_string());
+    let stacks: Vec<Stack> = at
+        .iter()
+        .map(|g| {
+            let values = names
+                .iter()
+                .map(|name| {
+                    let per_seed: Vec<f64> = g
+                        .rows
+                        .iter()
+                        .map(|r| {
+                            if name == "render" {
+                                r.render_s
+                            } else {
+                                phases(r).iter().filter(|(n, _)| n == name).map(|(_, s)| s).sum()
+                            }
+                        })
+                        .collect();
+                    super::stats::mean(&per_seed)
+                })
+                .collect();
+            Stack {
+                label: g.strategy.to_string(),
+                values,
+            }
+        })
+        .collect();
+    stacked_bar_chart(
+        &format!("{scene}: time per phase at {} (mean over seeds)", first.budget_label()),
+        "seconds",
+        &names,
+        &stacks,
+        &plots.join(format!("{scene}_timing")),
+    )
 }
 
 /// A number in a table: four significant digits, scientific outside 0.01 … 10 000.
