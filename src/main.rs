@@ -73,6 +73,11 @@ enum Command {
         #[arg(long)]
         csv: Option<PathBuf>,
     },
+    /// Redraw every plot of a run directory from its metrics.csv alone.
+    Plot {
+        /// A run directory, e.g. results/cornell/<run-id>.
+        run: PathBuf,
+    },
     /// List the strategies with their parameters and defaults, and the shipped scenes.
     List,
 }
@@ -173,6 +178,11 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(path) = csv {
                 photon_bench::perf::append_csv(&r, &path)?;
             }
+            Ok(())
+        }
+        Command::Plot { run } => {
+            photon_bench::report::redraw(&run)?;
+            println!("{}", run.join("plots").display());
             Ok(())
         }
         Command::List => {

@@ -134,6 +134,25 @@ fn reference_then_run_writes_a_complete_result_directory() {
     );
     assert_offline_page(run);
 
+    // `bench plot` redraws every plot from metrics.csv alone.
+    let bare = root.join("bare");
+    std::fs::create_dir_all(&bare).unwrap();
+    std::fs::copy(run.join("metrics.csv"), bare.join("metrics.csv")).unwrap();
+    let o = bench(root, &["plot", "bare"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut plots: Vec<String> = std::fs::read_dir(run.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    let mut redrawn: Vec<String> = std::fs::read_dir(bare.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    plots.sort();
+    redrawn.sort();
+    assert_eq!(plots, redrawn);
+    assert_refused(&bench(root, &["plot", "nowhere"]), &["nowhere", "metrics.csv"]);
+
     // A second run never overwrites the first; it takes every cell from the cache.
     let o = bench(root, &["run", "experiments/tiny.toml"]);
     assert!(o.status.success());
