@@ -2,6 +2,7 @@
 //! the run summary. Like [`crate::metrics`], it never sees a scene.
 
 pub mod bars;
+pub mod compare;
 pub mod convergence;
 pub mod html;
 pub mod plot;
