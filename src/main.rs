@@ -29,6 +29,9 @@ enum Command {
     Run {
         /// The experiment file, e.g. experiments/cornell.toml.
         experiment: PathBuf,
+        /// Render every cell again instead of reusing cached cells (and replace the cache).
+        #[arg(long)]
+        force: bool,
     },
     /// Render a converged reference image of a scene with `path` into references/.
     Reference {
@@ -70,6 +73,19 @@ enum Command {
         #[arg(long)]
         csv: Option<PathBuf>,
     },
+    /// Redraw every plot of a run directory from its metrics.csv alone.
+    Plot {
+        /// A run directory, e.g. results/cornell/<run-id>.
+        run: PathBuf,
+    },
+    /// Compare a candidate run with a baseline run: exit status 1 on a significant error
+    /// regression, 0 otherwise, 2 on bad input.
+    Compare {
+        /// The baseline run directory, e.g. results/baseline.
+        baseline: PathBuf,
+        /// The candidate run directory, e.g. results/ci/<run-id>.
+        candidate: PathBuf,
+    },
     /// List the strategies with their parameters and defaults, and the shipped scenes.
     List,
 }
@@ -77,7 +93,8 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(Status::Success) => ExitCode::SUCCESS,
+        Ok(Status::Regression) => ExitCode::from(1),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
@@ -85,7 +102,14 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+/// How a command that did not fail ended.
+enum Status {
+    Success,
+    /// `bench compare` found a regression.
+    Regression,
+}
+
+fn run(cli: Cli) -> Result<Status> {
     if let Some(n) = cli.threads {
         if n == 0 || n > 4096 {
             return Err(Error::new(format!("--threads: expected 1..=4096, got {n}")));
@@ -95,12 +119,38 @@ fn run(cli: Cli) -> Result<()> {
             .build_global()
             .map_err(|e| Error::new(e.to_string()))?;
     }
-    match cli.command {
-        Command::Run { experiment } => {
+    run_command(cli.command)
+}
+
+fn run_command(command: Command) -> Result<Status> {
+    match command {
+        Command::Compare { baseline, candidate } => {
+            let read = |dir: &PathBuf| {
+                let csv = dir.join("metrics.csv");
+                if !csv.is_file() {
+                    return Err(Error::new(format!(
+                        "{}: no metrics.csv; expected a run directory",
+                        dir.display()
+                    )));
+                }
+                photon_bench::report::rows::read_csv(&csv)
+            };
+            let (base, cand) = (read(&baseline)?, read(&candidate)?);
+            let comparison = photon_bench::report::compare::compare(&base, &cand)
+                .map_err(|e| e.context(format!("{} vs {}", baseline.display(), candidate.display())))?;
+            print!("{}", photon_bench::report::compare::table(&comparison));
+            Ok(if comparison.regressions() > 0 {
+                Status::Regression
+            } else {
+                Status::Success
+            })
+        }
+        Command::Run { experiment, force } => {
             let exp = Experiment::load(&experiment)?;
-            let dir = experiment::run(&exp)?;
-            println!("{}", dir.display());
-            Ok(())
+            let outcome = experiment::run(&exp, force)?;
+            eprintln!("cells: {} cached, {} rendered", outcome.cached, outcome.rendered);
+            println!("{}", outcome.dir.display());
+            Ok(Status::Success)
         }
         Command::Reference {
             scene,
@@ -134,7 +184,7 @@ fn run(cli: Cli) -> Result<()> {
             let exr = reference::make(&scene, &out, spp, seed, params, |done| bar.set_position(done as u64))?;
             bar.finish_and_clear();
             println!("{}", exr.display());
-            Ok(())
+            Ok(Status::Success)
         }
         Command::Perf {
             scene,
@@ -169,7 +219,12 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(path) = csv {
                 photon_bench::perf::append_csv(&r, &path)?;
             }
-            Ok(())
+            Ok(Status::Success)
+        }
+        Command::Plot { run } => {
+            photon_bench::report::redraw(&run)?;
+            println!("{}", run.join("plots").display());
+            Ok(Status::Success)
         }
         Command::List => {
             println!("strategies:");
@@ -193,7 +248,7 @@ fn run(cli: Cli) -> Result<()> {
             for n in names {
                 println!("  {n}");
             }
-            Ok(())
+            Ok(Status::Success)
         }
     }
 }

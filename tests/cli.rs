@@ -54,9 +54,21 @@ fn assert_refused(o: &Output, expected: &[&str]) {
     }
 }
 
+/// Entries of `results/tiny/` besides the cell cache: run directories and partial runs.
 fn run_dirs(root: &Path) -> Vec<PathBuf> {
     match std::fs::read_dir(root.join("results/tiny")) {
-        Ok(d) => d.map(|e| e.unwrap().path()).collect(),
+        Ok(d) => d.map(|e| e.unwrap().path()).filter(|p| !p.ends_with("cells")).collect(),
+        Err(_) => Vec::new(),
+    }
+}
+
+/// Completed cells in the cache (hidden temporaries left out).
+fn cached_cells(root: &Path) -> Vec<PathBuf> {
+    match std::fs::read_dir(root.join("results/tiny/cells")) {
+        Ok(d) => d
+            .map(|e| e.unwrap().path())
+            .filter(|p| !p.file_name().unwrap().to_string_lossy().starts_with('.'))
+            .collect(),
         Err(_) => Vec::new(),
     }
 }
@@ -100,9 +112,71 @@ fn reference_then_run_writes_a_complete_result_directory() {
         assert!(run.join(f).exists(), "{f}");
     }
 
-    // A second run never overwrites the first.
-    assert!(bench(root, &["run", "experiments/tiny.toml"]).status.success());
+    let summary = std::fs::read_to_string(run.join("summary.md")).unwrap();
+    for text in ["### rel_mse", "95 % CI", "| uniform | 2 spp | 2 |"] {
+        assert!(summary.contains(text), "summary lacks {text:?}:\n{summary}");
+    }
+    let svg = std::fs::read_to_string(run.join("plots/tiny_mse_vs_spp.svg")).unwrap();
+    assert!(svg.contains("<polygon"), "CI bands are drawn");
+    for f in [
+        "plots/tiny_mse_equal_spp.svg",
+        "plots/tiny_timing.png",
+        "images/tiny_strip_spp2.png",
+        "images/tiny_uniform_seed1_spp1_error.png",
+    ] {
+        assert!(run.join(f).exists(), "{f}");
+    }
+    let strip = image::open(run.join("images/tiny_strip_spp2.png")).unwrap();
+    assert_eq!(
+        (strip.width(), strip.height()),
+        (3 * 16 + 2 * 2, 12),
+        "two strategies and the reference"
+    );
+    assert_offline_page(run);
+
+    // `bench plot` redraws every plot from metrics.csv alone.
+    let bare = root.join("bare");
+    std::fs::create_dir_all(&bare).unwrap();
+    std::fs::copy(run.join("metrics.csv"), bare.join("metrics.csv")).unwrap();
+    let o = bench(root, &["plot", "bare"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut plots: Vec<String> = std::fs::read_dir(run.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    let mut redrawn: Vec<String> = std::fs::read_dir(bare.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    plots.sort();
+    redrawn.sort();
+    assert_eq!(plots, redrawn);
+    assert_refused(&bench(root, &["plot", "nowhere"]), &["nowhere", "metrics.csv"]);
+
+    // A second run never overwrites the first; it takes every cell from the cache.
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert!(o.status.success());
+    assert!(stderr(&o).contains("cells: 4 cached, 0 rendered"), "{}", stderr(&o));
     assert_eq!(run_dirs(root).len(), 2);
+    assert_eq!(cached_cells(root).len(), 4);
+}
+
+/// `index.html` loads nothing from outside the run directory and every link resolves.
+fn assert_offline_page(run: &Path) {
+    let html = std::fs::read_to_string(run.join("index.html")).unwrap();
+    assert!(
+        !html.contains("http:") && !html.contains("https:") && !html.contains("//"),
+        "{html}"
+    );
+    let mut links = 0;
+    for attr in ["src=\"", "href=\""] {
+        for part in html.split(attr).skip(1) {
+            let link = &part[..part.find('"').unwrap()];
+            assert!(run.join(link).exists(), "broken link {link}");
+            links += 1;
+        }
+    }
+    assert!(links > 10, "{links} links");
 }
 
 #[test]
@@ -175,4 +249,140 @@ fn bad_input_is_refused_before_anything_is_written() {
         &["--spp"],
     );
     assert_refused(&bench(root, &["--threads", "0", "list"]), &["--threads"]);
+}
+
+#[test]
+fn sweeps_and_time_budgets_give_labelled_rows_and_spp_rows_are_deterministic() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let experiment = r#"
+scenes = ["../scenes/tiny.toml"]
+spp = [1, 2]
+seconds = [0.02, 0.05]
+seeds = 2
+[[strategy]]
+kind = "path"
+max_depth = [1, 3]
+"#;
+    std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
+    let mut runs = Vec::new();
+    for _ in 0..2 {
+        let o = bench(root, &["run", "experiments/tiny.toml"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let dir = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+        runs.push(photon_bench::report::rows::read_csv(&root.join(dir).join("metrics.csv")).unwrap());
+    }
+    let rows = &runs[0];
+    assert_eq!(rows.len(), 2 * 2 * (2 + 2), "strategies × seeds × checkpoints");
+    let labels: Vec<&str> = rows.iter().map(|r| r.strategy.as_str()).collect();
+    assert!(labels.contains(&"path[max_depth=1]") && labels.contains(&"path[max_depth=3]"));
+    for r in rows.iter().filter(|r| r.strategy == "path[max_depth=1]") {
+        assert!(r.params.contains("max_depth=1"), "{}", r.params);
+    }
+    let timed: Vec<_> = rows.iter().filter(|r| r.budget == "seconds").collect();
+    assert_eq!(timed.len(), 8);
+    for r in &timed {
+        assert!(r.spp >= 1 && r.total_s > 0.0);
+        assert!(r.budget_value == 0.02 || r.budget_value == 0.05);
+        // Passes go on until the budget is reached.
+        assert!(r.total_s >= r.budget_value, "{} < {}", r.total_s, r.budget_value);
+    }
+    // Equal samples: the same metrics bit for bit in every run.
+    let spp_rows = |rows: &[photon_bench::report::rows::Row]| -> Vec<(String, u64, u32, u64)> {
+        rows.iter()
+            .filter(|r| r.budget == "spp")
+            .map(|r| (r.strategy.clone(), r.seed, r.spp, r.mse.to_bits()))
+            .collect()
+    };
+    assert_eq!(spp_rows(&runs[0]), spp_rows(&runs[1]));
+    assert_eq!(spp_rows(&runs[0]).len(), 8);
+}
+
+#[test]
+fn a_killed_run_resumes_from_its_cached_cells_with_identical_results() {
+    let p = project();
+    let root = p.path();
+    let scene = std::fs::read_to_string(root.join("scenes/tiny.toml")).unwrap();
+    std::fs::write(
+        root.join("scenes/tiny.toml"),
+        scene.replace("resolution = [16, 12]", "resolution = [48, 36]"),
+    )
+    .unwrap();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let experiment = "scenes = [\"../scenes/tiny.toml\"]\nspp = [1, 128]\nseeds = 3\n\
+        [[strategy]]\nkind = \"path\"\n[[strategy]]\nkind = \"path\"\nlabel = \"uniform\"\nbsdf_sampling = \"uniform\"\n";
+    std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
+
+    // Kill (SIGKILL) the run as soon as its first cell is cached.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bench"))
+        .current_dir(root)
+        .args(["--threads", "1", "run", "experiments/tiny.toml"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while cached_cells(root).is_empty() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before a cell was cached"
+        );
+        assert!(started.elapsed().as_secs() < 120, "no cell cached in two minutes");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let cached = cached_cells(root).len();
+    assert!((1..6).contains(&cached), "{cached} of 6 cells cached when killed");
+    // No finished run, and every cached cell is complete.
+    assert!(
+        run_dirs(root)
+            .iter()
+            .all(|d| d.file_name().unwrap().to_string_lossy().ends_with(".partial"))
+    );
+    for cell in cached_cells(root) {
+        let rows = photon_bench::report::rows::read_csv(&cell.join("rows.csv")).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert!(rows.iter().all(|r| cell.join(&r.image).exists()));
+    }
+
+    // Running again renders only the missing cells ...
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let msg = format!("cells: {cached} cached, {} rendered", 6 - cached);
+    assert!(stderr(&o).contains(&msg), "expected {msg:?} in {}", stderr(&o));
+    let resumed = root.join(String::from_utf8_lossy(&o.stdout).trim());
+    // ... and gives the metrics of a run from scratch, bit for bit.
+    let o = bench(root, &["run", "--force", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cells: 0 cached, 6 rendered"), "{}", stderr(&o));
+    let fresh = root.join(String::from_utf8_lossy(&o.stdout).trim());
+    let key = |dir: &Path| -> Vec<(String, u64, u32, [u64; 3])> {
+        photon_bench::report::rows::read_csv(&dir.join("metrics.csv"))
+            .unwrap()
+            .iter()
+            .map(|r| {
+                (
+                    r.strategy.clone(),
+                    r.seed,
+                    r.spp,
+                    [r.mse.to_bits(), r.rel_mse.to_bits(), r.mean_r.to_bits()],
+                )
+            })
+            .collect()
+    };
+    assert_eq!(key(&resumed).len(), 12);
+    assert_eq!(key(&resumed), key(&fresh));
+    for r in photon_bench::report::rows::read_csv(&resumed.join("metrics.csv")).unwrap() {
+        assert!(resumed.join(&r.image).exists(), "{}", r.image);
+    }
 }

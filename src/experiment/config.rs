@@ -5,7 +5,8 @@
 //! name = "cornell"                 # results go to <output>/<name>/<run-id>/ (default: file stem)
 //! description = "…"                # optional, copied into the summary
 //! scenes = ["../scenes/cornell-empty.toml"]   # relative to this file
-//! spp = [1, 4, 16, 64]             # checkpoints: one CSV row per strategy × scene × seed × spp
+//! spp = [1, 4, 16, 64]             # equal samples: one CSV row per strategy × scene × seed × spp
+//! seconds = [0.5, 2]               # equal time (preparation included); spp, seconds or both
 //! seeds = 2                        # independent runs, seeds base_seed … base_seed + seeds − 1
 //! base_seed = 0                    # optional
 //! references = "../references"     # optional: where <scene name>.exr references live
@@ -14,8 +15,22 @@
 //! [[strategy]]
 //! kind = "path"                    # see `bench list` for kinds, parameters and defaults
 //! label = "path-mis"               # optional, defaults to the kind; unique per experiment
-//! max_depth = 8                    # any parameter of the kind; unknown keys are errors
+//! max_depth = [2, 4, 8]            # any parameter of the kind; unknown keys are errors
 //! ```
+//!
+//! ## Sweeps
+//!
+//! A parameter written as a list is swept: each `[[strategy]]` expands into the cartesian
+//! product of its list-valued parameters, taken in alphabetical order of their names, the last
+//! varying fastest. Every combination is built once while parsing, so a misspelled key or a bad
+//! value in any combination is refused. An expanded strategy is labelled
+//! `<label>[key=value,…]` with its swept values, e.g. `path[max_depth=4]`; a strategy without
+//! list-valued parameters keeps its plain label.
+//!
+//! A parameter whose value is itself a list (say a future `grid = [4, 16]`) is written as a
+//! list of lists: `grid = [[4, 16]]` is the single value `[4, 16]`, and
+//! `grid = [[4, 16], [8, 8]]` sweeps over two values. A list whose elements are all lists is
+//! always a sweep over those lists.
 
 use crate::error::{Error, Result};
 use crate::strategy::{self, Strategy};
@@ -25,6 +40,8 @@ use std::path::{Path, PathBuf};
 
 /// Largest accepted samples per pixel (a typo guard; references use `bench reference`).
 pub const MAX_SPP: u32 = 1 << 20;
+/// Largest accepted time budget, seconds.
+pub const MAX_SECONDS: f64 = 86_400.0;
 /// Largest accepted number of seeds.
 pub const MAX_SEEDS: u32 = 1000;
 
@@ -34,7 +51,10 @@ struct ExperimentFile {
     name: Option<String>,
     description: Option<String>,
     scenes: Vec<String>,
+    #[serde(default)]
     spp: Vec<u32>,
+    #[serde(default)]
+    seconds: Vec<f64>,
     #[serde(default = "one")]
     seeds: u32,
     #[serde(default)]
@@ -49,13 +69,17 @@ fn one() -> u32 {
     1
 }
 
-/// One strategy entry of an experiment.
+/// One strategy of an experiment: one combination of a `[[strategy]]` table's swept values.
 #[derive(Debug, Clone)]
 pub struct StrategySpec {
+    /// Unique label: the table's `label` (default: the kind), plus `[key=value,…]` of the
+    /// swept parameters when there are any.
     pub label: String,
     pub kind: String,
-    /// The parameter table as written (without `kind` and `label`).
+    /// The parameter table of this combination (without `kind` and `label`).
     pub params: toml::Table,
+    /// The swept parameters of this combination with their values, by name.
+    pub swept: Vec<(String, String)>,
 }
 
 impl StrategySpec {
@@ -74,8 +98,11 @@ pub struct Experiment {
     pub name: String,
     pub description: String,
     pub scenes: Vec<PathBuf>,
-    /// Checkpoints, ascending and unique.
+    /// Equal-samples checkpoints, ascending and unique (may be empty).
     pub spp: Vec<u32>,
+    /// Equal-time checkpoints in seconds of preparation + rendering, ascending and unique (may
+    /// be empty, but not together with `spp`).
+    pub seconds: Vec<f64>,
     pub seeds: Vec<u64>,
     pub references: PathBuf,
     pub output: PathBuf,
@@ -107,9 +134,19 @@ impl Experiment {
         if raw.scenes.is_empty() {
             return Err(at("scenes: expected at least one scene file".into()));
         }
-        if raw.spp.is_empty() {
-            return Err(at("spp: expected a non-empty list of sample counts".into()));
+        if raw.spp.is_empty() && raw.seconds.is_empty() {
+            return Err(at(
+                "spp, seconds: expected a non-empty list of sample counts (spp) or time budgets (seconds)".into(),
+            ));
         }
+        if let Some(bad) = raw.seconds.iter().find(|&&s| !(s > 0.0 && s <= MAX_SECONDS)) {
+            return Err(at(format!(
+                "seconds: expected time budgets in (0, {MAX_SECONDS}], got {bad}"
+            )));
+        }
+        let mut seconds = raw.seconds.clone();
+        seconds.sort_by(f64::total_cmp);
+        seconds.dedup();
         if let Some(bad) = raw.spp.iter().find(|&&s| s == 0 || s > MAX_SPP) {
             return Err(at(format!("spp: expected sample counts in 1..={MAX_SPP}, got {bad}")));
         }
@@ -126,16 +163,20 @@ impl Experiment {
         if raw.strategies.is_empty() {
             return Err(at("strategy: expected at least one [[strategy]] table".into()));
         }
-        let mut strategies = Vec::new();
+        let mut strategies: Vec<StrategySpec> = Vec::new();
         for (i, table) in raw.strategies.into_iter().enumerate() {
-            let spec = strategy_spec(table).map_err(|e| at(format!("strategy[{i}]{e}")))?;
-            if strategies.iter().any(|s: &StrategySpec| s.label == spec.label) {
-                return Err(at(format!(
-                    "strategy[{i}].label: `{}` is used twice; give each strategy a unique label",
-                    spec.label
-                )));
+            for spec in strategy_specs(table).map_err(|e| at(format!("strategy[{i}]{e}")))? {
+                let clash = strategies
+                    .iter()
+                    .find(|s| s.label == spec.label || s.file_stem() == spec.file_stem());
+                if let Some(other) = clash {
+                    return Err(at(format!(
+                        "strategy[{i}].label: `{}` is used twice (or names the same files as `{}`); give each strategy a unique label",
+                        spec.label, other.label
+                    )));
+                }
+                strategies.push(spec);
             }
-            strategies.push(spec);
         }
         Ok(Experiment {
             file: file.to_path_buf(),
@@ -144,6 +185,7 @@ impl Experiment {
             description: raw.description.unwrap_or_default(),
             scenes: raw.scenes.iter().map(|s| join_clean(dir, s)).collect(),
             spp,
+            seconds,
             seeds,
             references: join_clean(dir, raw.references.as_deref().unwrap_or("../references")),
             output: join_clean(dir, raw.output.as_deref().unwrap_or("../results")),
@@ -152,8 +194,112 @@ impl Experiment {
     }
 }
 
-/// Splits `kind` and `label` off a strategy table and checks the parameters by building the
-/// strategy once. Errors start with the field path after `strategy[i]`.
+impl StrategySpec {
+    /// The label as used in file names: `[`, `=`, `,` and other characters outside letters,
+    /// digits, `-`, `_` and `.` become `-` (`path[max_depth=4]` → `path-max_depth-4`).
+    pub fn file_stem(&self) -> String {
+        file_stem(&self.label)
+    }
+}
+
+/// See [`StrategySpec::file_stem`].
+pub fn file_stem(label: &str) -> String {
+    let mapped: String = label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    let mut out = String::with_capacity(mapped.len());
+    for c in mapped.chars() {
+        if !(c == '-' && out.ends_with('-')) {
+            out.push(c);
+        }
+    }
+    out.trim_end_matches('-').to_string()
+}
+
+/// Largest number of combinations one `[[strategy]]` table may expand into.
+pub const MAX_SWEEP: usize = 10_000;
+
+/// A value as shown in a label: strings without quotes, everything else as TOML writes it.
+fn label_value(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// The values a parameter sweeps over, or `None` when it holds a single value: a list sweeps
+/// over its elements (a list of lists over its inner lists).
+fn sweep_values(v: &toml::Value) -> Option<&Vec<toml::Value>> {
+    match v {
+        toml::Value::Array(items) => Some(items),
+        _ => None,
+    }
+}
+
+/// Splits `kind` and `label` off a strategy table, expands its list-valued parameters into
+/// their cartesian product and checks every combination by building it. Errors start with the
+/// field path after `strategy[i]`.
+fn strategy_specs(table: toml::Table) -> Result<Vec<StrategySpec>, String> {
+    let base = strategy_spec(table)?;
+    let swept: Vec<(String, Vec<toml::Value>)> = base
+        .params
+        .iter()
+        .filter_map(|(k, v)| sweep_values(v).map(|items| (k.clone(), items.clone())))
+        .collect();
+    if let Some((key, _)) = swept.iter().find(|(_, items)| items.is_empty()) {
+        return Err(format!(
+            ".{key}: an empty list sweeps over nothing; give at least one value"
+        ));
+    }
+    let count = swept
+        .iter()
+        .try_fold(1usize, |n, (_, items)| n.checked_mul(items.len()));
+    if count.is_none_or(|n| n > MAX_SWEEP) {
+        return Err(format!(": the sweep has more than {MAX_SWEEP} combinations"));
+    }
+    let mut specs = Vec::new();
+    for combination in 0..count.unwrap_or(1) {
+        // Mixed radix, the last parameter varying fastest.
+        let mut rest = combination;
+        let mut choice = vec![0; swept.len()];
+        for (slot, (_, items)) in choice.iter_mut().zip(&swept).rev() {
+            *slot = rest % items.len();
+            rest /= items.len();
+        }
+        let mut spec = StrategySpec {
+            swept: Vec::new(),
+            ..base.clone()
+        };
+        for ((key, items), &i) in swept.iter().zip(&choice) {
+            spec.params.insert(key.clone(), items[i].clone());
+            spec.swept.push((key.clone(), label_value(&items[i])));
+        }
+        if !spec.swept.is_empty() {
+            let values: Vec<String> = spec.swept.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            spec.label = format!("{}[{}]", base.label, values.join(","));
+        }
+        spec.instantiate().map_err(|e| {
+            let at = if spec.swept.is_empty() {
+                String::new()
+            } else {
+                format!(" {}", spec.label)
+            };
+            format!(" ({}){at}: {}", spec.kind, e.message())
+        })?;
+        specs.push(spec);
+    }
+    Ok(specs)
+}
+
+/// Splits `kind` and `label` off a strategy table. Errors start with the field path after
+/// `strategy[i]`.
 fn strategy_spec(mut table: toml::Table) -> Result<StrategySpec, String> {
     let kind = match table.remove("kind") {
         Some(toml::Value::String(k)) => k,
@@ -178,14 +324,12 @@ fn strategy_spec(mut table: toml::Table) -> Result<StrategySpec, String> {
         }
         None => kind.clone(),
     };
-    let spec = StrategySpec {
+    Ok(StrategySpec {
         label,
         kind,
         params: table,
-    };
-    spec.instantiate()
-        .map_err(|e| format!(" ({}): {}", spec.kind, e.message()))?;
-    Ok(spec)
+        swept: Vec::new(),
+    })
 }
 
 /// A one-line description of a TOML error with its line and column.
@@ -223,6 +367,63 @@ mod tests {
     }
 
     #[test]
+    fn budgets_may_be_samples_time_or_both() {
+        let e = parse(&VALID.replace("spp = [4, 1, 4]", "seconds = [2, 0.5, 2]")).unwrap();
+        assert!(e.spp.is_empty());
+        assert_eq!(e.seconds, [0.5, 2.0]);
+        let e = parse(&VALID.replace("spp = [4, 1, 4]", "spp = [8]\nseconds = [1.5]")).unwrap();
+        assert_eq!((e.spp.as_slice(), e.seconds.as_slice()), (&[8][..], &[1.5][..]));
+    }
+
+    #[test]
+    fn list_valued_parameters_expand_into_their_cartesian_product() {
+        let text = VALID.replace(
+            "max_depth = 3",
+            "max_depth = [2, 4]\ndirect = [\"mis\", \"nee\", \"bsdf\"]",
+        );
+        let e = parse(&text).unwrap();
+        let labels: Vec<&str> = e.strategies.iter().map(|s| s.label.as_str()).collect();
+        assert_eq!(
+            labels,
+            [
+                "path[direct=mis,max_depth=2]",
+                "path[direct=mis,max_depth=4]",
+                "path[direct=nee,max_depth=2]",
+                "path[direct=nee,max_depth=4]",
+                "path[direct=bsdf,max_depth=2]",
+                "path[direct=bsdf,max_depth=4]",
+            ]
+        );
+        let s = &e.strategies[3];
+        assert_eq!(s.params["max_depth"], toml::Value::Integer(4));
+        assert_eq!(s.params["direct"], toml::Value::String("nee".into()));
+        assert_eq!(
+            s.swept,
+            [("direct".into(), "nee".into()), ("max_depth".into(), "4".into())]
+        );
+        assert_eq!(s.file_stem(), "path-direct-nee-max_depth-4");
+        let built = s.instantiate().unwrap().params();
+        assert!(built.contains(&("max_depth", "4".to_string())), "{built:?}");
+
+        // A label prefixes the swept values; unswept strategies keep their label.
+        let text = format!("{VALID}[[strategy]]\nkind = \"path\"\nlabel = \"uni\"\nrr_depth = [1]\n");
+        let e = parse(&text).unwrap();
+        assert_eq!(e.strategies[0].label, "path");
+        assert_eq!(e.strategies[1].label, "uni[rr_depth=1]");
+    }
+
+    #[test]
+    fn a_list_of_lists_sweeps_over_list_values() {
+        let table: toml::Table = toml::from_str("kind = \"x\"\ngrid = [[4, 16], [8, 8]]\nn = 1").unwrap();
+        // `x` is no kind, so check the expansion before validation through sweep_values.
+        let items = sweep_values(&table["grid"]).unwrap();
+        assert_eq!(items.len(), 2);
+        assert_eq!(label_value(&items[0]), "[4, 16]");
+        assert!(sweep_values(&table["n"]).is_none());
+        assert_eq!(file_stem("g[grid=[4, 16]]"), "g-grid-4-16");
+    }
+
+    #[test]
     fn bad_files_name_the_field() {
         let cases = [
             (
@@ -236,13 +437,34 @@ mod tests {
             ),
             (
                 VALID.replace("spp = [4, 1, 4]", "spp = []"),
-                "spp: expected a non-empty list",
+                "spp, seconds: expected a non-empty list",
+            ),
+            (
+                VALID.replace("spp = [4, 1, 4]", "seconds = [0.0]"),
+                "seconds: expected time budgets",
             ),
             (VALID.replace("seeds = 2", "seeds = 0"), "seeds: expected a count"),
             (VALID.replace("seeds = 2", "seedz = 2"), "unknown field `seedz`"),
             (VALID.replace("max_depth = 3", "max_depth = -3"), "strategy[0] (path)"),
             (VALID.replace("spp = [4, 1, 4]", "spp = [4 1]"), "line 2, column"),
             (format!("{VALID}[[strategy]]\nkind = \"path\"\n"), "used twice"),
+            (
+                VALID.replace("max_depth = 3", "max_depth = [3, -1]"),
+                "strategy[0] (path) path[max_depth=-1]",
+            ),
+            (
+                VALID.replace("max_depth = 3", "max_depth = []"),
+                "strategy[0].max_depth: an empty list",
+            ),
+            (
+                VALID.replace("max_depth = 3", "max_dpeth = [3, 4]"),
+                "unknown field `max_dpeth`",
+            ),
+            (
+                format!("{VALID}[[strategy]]\nkind = \"path\"\nlabel = \"path-max_depth-3\"\n")
+                    .replace("max_depth = 3", "max_depth = [3]"),
+                "used twice",
+            ),
         ];
         for (text, expected) in cases {
             let err = parse(&text).unwrap_err().to_string();

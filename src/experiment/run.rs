@@ -1,17 +1,25 @@
-//! Runs an experiment: every scene × strategy × seed, rendered progressively through the spp
-//! checkpoints, each checkpoint compared with the scene's reference.
+//! Runs an experiment: every cell (scene × strategy × seed), rendered progressively through
+//! the equal-samples (`spp`) and equal-time (`seconds`) checkpoints, each checkpoint compared
+//! with the scene's reference.
 //!
 //! Everything that can be refused (the experiment file, scenes, references, strategy
-//! parameters) is checked before anything is written. A run renders into a hidden
+//! parameters) is checked before anything is written.
+//!
+//! Cells are cached: each completed cell's rows and images go to
+//! `<output>/<name>/cells/<hash>/`, written into a hidden temporary directory and renamed into
+//! place, so a cell is either complete or absent even when the process is killed. The hash
+//! ([`cell_hash`]) covers everything the cell's results depend on; a later run of the same
+//! experiment reuses cached cells instead of rendering them again (unless `force`), so a killed
+//! run is resumed by running it again. A run renders into a hidden
 //! `<output>/<name>/.<run-id>.partial/` directory that is renamed to `<run-id>/` only when
 //! complete, so `results/` never shows half a run, and a new run never overwrites an old one.
 
-use super::config::Experiment;
+use super::config::{Experiment, MAX_SPP, StrategySpec};
 use super::reference::{self, Reference};
 use crate::error::{Context, Result};
-use crate::film::{Film, write_exr, write_png};
+use crate::film::{Film, image_strip, read_exr, write_error_png, write_exr, write_png};
 use crate::metrics;
-use crate::report::rows::{Row, write_csv};
+use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, read_csv, write_csv};
 use crate::scene::{Scene, load_scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -23,8 +31,20 @@ struct Prepared {
     reference: Reference,
 }
 
-/// Runs `exp` and returns the directory holding its results.
-pub fn run(exp: &Experiment) -> Result<PathBuf> {
+/// What a run did.
+#[derive(Debug)]
+pub struct Outcome {
+    /// The run directory.
+    pub dir: PathBuf,
+    /// Cells taken from the cache.
+    pub cached: usize,
+    /// Cells rendered (and cached).
+    pub rendered: usize,
+}
+
+/// Runs `exp` and returns the directory holding its results. Cached cells are reused unless
+/// `force`, which renders every cell again and replaces its cache entry.
+pub fn run(exp: &Experiment, force: bool) -> Result<Outcome> {
     // Refuse bad input before anything is written.
     let mut prepared = Vec::new();
     for path in &exp.scenes {
@@ -38,12 +58,110 @@ pub fn run(exp: &Experiment) -> Result<PathBuf> {
     let partial = base.join(format!(".{run_id}.partial"));
     let final_dir = base.join(&run_id);
     std::fs::create_dir_all(partial.join("images")).context(partial.display())?;
-    let result = run_into(exp, &prepared, &run_id, &partial)
-        .and_then(|()| std::fs::rename(&partial, &final_dir).context(final_dir.display()));
+    let result = run_into(exp, &prepared, &run_id, &partial, force).and_then(|counts| {
+        std::fs::rename(&partial, &final_dir)
+            .context(final_dir.display())
+            .map(|()| counts)
+    });
     if result.is_err() {
         let _ = std::fs::remove_dir_all(&partial);
     }
-    result.map(|()| final_dir)
+    result.map(|(cached, rendered)| Outcome {
+        dir: final_dir,
+        cached,
+        rendered,
+    })
+}
+
+/// Identifies the binary for cell hashes: the package version and a hash of the executable,
+/// so that any rebuild with changed code invalidates the cache.
+fn binary_id() -> &'static str {
+    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ID.get_or_init(|| {
+        let exe = std::env::current_exe()
+            .and_then(std::fs::read)
+            .map(|bytes| crate::util::content_hash(&[&bytes]))
+            .unwrap_or_else(|_| "unknown".to_string());
+        format!("{}+{exe}", env!("CARGO_PKG_VERSION"))
+    })
+}
+
+/// The content hash of a cell: the strategy's label, kind and every parameter (defaults
+/// included), the budgets, the seed, the scene's name and hash, the reference's hash and the
+/// binary ([`binary_id`]). The experiment's name, description and other cells do not enter.
+pub fn cell_hash(
+    exp: &Experiment,
+    scene: &Scene,
+    reference: &Reference,
+    spec: &StrategySpec,
+    params: &str,
+    seed: u64,
+) -> String {
+    let spp = format!("{:?}", exp.spp);
+    let seconds = format!("{:?}", exp.seconds.iter().map(|s| s.to_bits()).collect::<Vec<_>>());
+    crate::util::content_hash(&[
+        b"photon-bench cell v1",
+        spec.label.as_bytes(),
+        spec.kind.as_bytes(),
+        params.as_bytes(),
+        spp.as_bytes(),
+        seconds.as_bytes(),
+        &seed.to_le_bytes(),
+        scene.name.as_bytes(),
+        scene.content_hash.as_bytes(),
+        reference.hash.as_bytes(),
+        binary_id().as_bytes(),
+    ])
+}
+
+/// The rows of a cached cell, or `None` when it is absent or unreadable.
+fn load_cell(cell: &Path) -> Option<Vec<Row>> {
+    let rows = read_csv(&cell.join("rows.csv")).ok()?;
+    rows.iter().all(|r| cell.join(&r.image).exists()).then_some(rows)
+}
+
+/// Renders a cell into `<cells>/.tmp-<hash>-<pid>/` and renames it to `<cells>/<hash>/`.
+fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec<Row>>) -> Result<Vec<Row>> {
+    let tmp = cells.join(format!(".tmp-{hash}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(tmp.join("images")).context(tmp.display())?;
+    let result = render(&tmp).and_then(|rows| {
+        write_csv(&rows, &tmp.join("rows.csv"))?;
+        let target = cells.join(hash);
+        if target.exists() {
+            // Replaced on --force (or written meanwhile by a concurrent run).
+            std::fs::remove_dir_all(&target).context(target.display())?;
+        }
+        std::fs::rename(&tmp, &target).context(target.display())?;
+        Ok(rows)
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+    result
+}
+
+/// Links (or copies, across file systems) a cell's images into the run directory.
+fn link_images(cell: &Path, rows: &[Row], dir: &Path) -> Result<()> {
+    for r in rows {
+        let exr = PathBuf::from(&r.image);
+        let stem = exr
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let siblings = [
+            exr.clone(),
+            exr.with_extension("png"),
+            exr.with_file_name(format!("{stem}_error.png")),
+        ];
+        for rel in siblings {
+            let (from, to) = (cell.join(&rel), dir.join(&rel));
+            if std::fs::hard_link(&from, &to).is_err() {
+                std::fs::copy(&from, &to).context(from.display())?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A run id that sorts by time and never collides with an earlier run in `base`.
@@ -83,119 +201,272 @@ fn utc_stamp(secs: u64) -> String {
     )
 }
 
-fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path) -> Result<()> {
+/// Renders (or takes from the cache) every cell into `dir`; returns (cached, rendered) counts.
+fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, force: bool) -> Result<(usize, usize)> {
     std::fs::write(dir.join("experiment.toml"), &exp.text).context(dir.display())?;
     let cells = prepared.len() * exp.strategies.len() * exp.seeds.len();
     let bar = ProgressBar::new(cells as u64).with_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let threads = rayon::current_num_threads();
-    let (git_revision, cpu) = (crate::util::git_revision(), crate::util::cpu_model());
-    let mut rows = Vec::new();
+    let env = Environment {
+        run_id: run_id.to_string(),
+        threads: rayon::current_num_threads(),
+        git_revision: crate::util::git_revision(),
+        cpu: crate::util::cpu_model(),
+    };
+    let cells_dir = exp.output.join(&exp.name).join("cells");
+    let (mut rows, mut cached, mut rendered) = (Vec::new(), 0, 0);
     for p in prepared {
         for spec in &exp.strategies {
+            let params = param_string(spec)?;
             for &seed in &exp.seeds {
                 bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
-                let mut strategy = spec.instantiate()?;
-                let params = strategy
-                    .params()
-                    .iter()
-                    .map(|(k, v)| format!("{k}={v}"))
-                    .collect::<Vec<_>>()
-                    .join(";");
-                let template = Row {
-                    experiment: exp.name.clone(),
-                    run_id: run_id.to_string(),
-                    scene: p.scene.name.clone(),
-                    scene_hash: p.scene.content_hash.clone(),
-                    reference_hash: p.reference.hash.clone(),
-                    reference_spp: p.reference.info.spp,
-                    strategy: spec.label.clone(),
-                    kind: strategy.kind().to_string(),
-                    params,
-                    seed,
-                    spp: 0,
-                    width: p.scene.camera.width,
-                    height: p.scene.camera.height,
-                    threads,
-                    git_revision: git_revision.clone(),
-                    cpu: cpu.clone(),
-                    prep_s: 0.0,
-                    render_s: 0.0,
-                    total_s: 0.0,
-                    phases: String::new(),
-                    non_finite: 0,
-                    mse: 0.0,
-                    rmse: 0.0,
-                    rel_mse: 0.0,
-                    mse_trimmed: 0.0,
-                    rel_mse_trimmed: 0.0,
-                    rms_rel_lum: 0.0,
-                    rms_rel_lum_excluded: 0,
-                    efficiency: 0.0,
-                    mean_r: 0.0,
-                    mean_g: 0.0,
-                    mean_b: 0.0,
-                    image: String::new(),
+                let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+                let cell = cells_dir.join(&hash);
+                let mut cell_rows = match load_cell(&cell).filter(|_| !force) {
+                    Some(r) => {
+                        cached += 1;
+                        r
+                    }
+                    None => {
+                        rendered += 1;
+                        store_cell(&cells_dir, &hash, |tmp| render_cell(exp, p, spec, seed, &env, tmp))?
+                    }
                 };
-
-                let start = Instant::now();
-                let phases = strategy.prepare(&p.scene, seed)?;
-                let prep_s = start.elapsed().as_secs_f64();
-                let phases = phases
-                    .iter()
-                    .map(|ph| format!("{}={:.6}", ph.name, ph.seconds))
-                    .collect::<Vec<_>>()
-                    .join(";");
-
-                let mut film = Film::new(p.scene.camera.width, p.scene.camera.height);
-                let mut render_s = 0.0;
-                let mut done = 0u32;
-                for &spp in &exp.spp {
-                    let t = Instant::now();
-                    strategy.render_pass(&p.scene, seed, done..spp, &mut film);
-                    render_s += t.elapsed().as_secs_f64();
-                    done = spp;
-
-                    let image = film.image();
-                    let m = metrics::compare(&image, &p.reference.image).map_err(|e| e.context(&p.scene.name))?;
-                    let stem = format!("{}_{}_seed{seed}_spp{spp}", p.scene.name, spec.label);
-                    let exr = PathBuf::from("images").join(format!("{stem}.exr"));
-                    write_exr(&image, &dir.join(&exr))?;
-                    write_png(&image, &dir.join(exr.with_extension("png")), 0.0)?;
-                    let mean = image.mean();
-                    let total_s = prep_s + render_s;
-                    rows.push(Row {
-                        spp,
-                        prep_s,
-                        render_s,
-                        total_s,
-                        phases: phases.clone(),
-                        non_finite: film.non_finite(),
-                        mse: m.mse,
-                        rmse: m.rmse,
-                        rel_mse: m.rel_mse,
-                        mse_trimmed: m.mse_trimmed,
-                        rel_mse_trimmed: m.rel_mse_trimmed,
-                        rms_rel_lum: m.rms_rel_lum,
-                        rms_rel_lum_excluded: m.rms_rel_lum_excluded,
-                        efficiency: metrics::efficiency(m.mse, total_s),
-                        mean_r: mean.x as f64,
-                        mean_g: mean.y as f64,
-                        mean_b: mean.z as f64,
-                        image: exr.display().to_string(),
-                        ..template.clone()
-                    });
+                link_images(&cell, &cell_rows, dir)?;
+                for r in &mut cell_rows {
+                    r.experiment = exp.name.clone();
+                    r.run_id = run_id.to_string();
                 }
+                rows.extend(cell_rows);
                 bar.inc(1);
             }
         }
     }
     bar.finish_and_clear();
     write_csv(&rows, &dir.join("metrics.csv"))?;
+    write_strips(exp, prepared, &rows, dir)?;
     crate::report::write_plots(&rows, dir)?;
-    crate::report::write_summary(exp, &rows, dir)
+    crate::report::write_summary(&exp.name, &exp.description, &rows, dir)?;
+    crate::report::html::write_index(&rows, dir)?;
+    Ok((cached, rendered))
+}
+
+/// Per scene, at the largest spp checkpoint and at the largest time budget: the first seed's
+/// image of every strategy side by side, then the reference ([`crate::report::html::strip_path`]).
+fn write_strips(exp: &Experiment, prepared: &[Prepared], rows: &[Row], dir: &Path) -> Result<()> {
+    let Some(&seed) = exp.seeds.first() else { return Ok(()) };
+    let checkpoints = [
+        (BUDGET_SPP, exp.spp.last().map(|&s| s as f64)),
+        (BUDGET_SECONDS, exp.seconds.last().copied()),
+    ];
+    for p in prepared {
+        for (budget, value) in checkpoints {
+            let Some(value) = value else { continue };
+            let mut images = Vec::new();
+            for spec in &exp.strategies {
+                let row = rows.iter().find(|r| {
+                    r.scene == p.scene.name
+                        && r.strategy == spec.label
+                        && r.seed == seed
+                        && r.budget == budget
+                        && r.budget_value == value
+                });
+                if let Some(r) = row {
+                    images.push(read_exr(&dir.join(&r.image))?);
+                }
+            }
+            let mut all: Vec<&crate::film::Image> = images.iter().collect();
+            all.push(&p.reference.image);
+            let strip = image_strip(&all, 2);
+            let path = dir.join(crate::report::html::strip_path(&p.scene.name, budget, value));
+            write_png(&strip, &path, 0.0)?;
+        }
+    }
+    Ok(())
+}
+
+/// Every parameter of a strategy as `key=value;…`, defaults included.
+fn param_string(spec: &StrategySpec) -> Result<String> {
+    Ok(spec
+        .instantiate()?
+        .params()
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(";"))
+}
+
+/// What every row of a run records about the machine and the run.
+struct Environment {
+    run_id: String,
+    threads: usize,
+    git_revision: String,
+    cpu: String,
+}
+
+/// One checkpoint's image, written into `dir/images/` (EXR, sRGB PNG and false-colour error
+/// PNG), and its row.
+struct Checkpoint<'a> {
+    dir: &'a Path,
+    stem: String,
+    template: &'a Row,
+    reference: &'a Reference,
+    scene: &'a str,
+}
+
+impl Checkpoint<'_> {
+    fn record(&self, film: &Film, spp: u32, prep_s: f64, render_s: f64) -> Result<Row> {
+        let image = film.image();
+        let m = metrics::compare(&image, &self.reference.image).map_err(|e| e.context(self.scene))?;
+        let exr = PathBuf::from("images").join(format!("{}.exr", self.stem));
+        write_exr(&image, &self.dir.join(&exr))?;
+        write_png(&image, &self.dir.join(exr.with_extension("png")), 0.0)?;
+        let error_png = PathBuf::from("images").join(format!("{}_error.png", self.stem));
+        write_error_png(&image, &self.reference.image, &self.dir.join(error_png))?;
+        let mean = image.mean();
+        let total_s = prep_s + render_s;
+        Ok(Row {
+            spp,
+            prep_s,
+            render_s,
+            total_s,
+            non_finite: film.non_finite(),
+            mse: m.mse,
+            rmse: m.rmse,
+            rel_mse: m.rel_mse,
+            mse_trimmed: m.mse_trimmed,
+            rel_mse_trimmed: m.rel_mse_trimmed,
+            rms_rel_lum: m.rms_rel_lum,
+            rms_rel_lum_excluded: m.rms_rel_lum_excluded,
+            efficiency: metrics::efficiency(m.mse, total_s),
+            mean_r: mean.x as f64,
+            mean_g: mean.y as f64,
+            mean_b: mean.z as f64,
+            image: exr.display().to_string(),
+            ..self.template.clone()
+        })
+    }
+}
+
+/// Renders one cell (scene × strategy × seed) through every budget and writes its images into
+/// `dir/images/`; returns its rows, equal-samples checkpoints first.
+///
+/// Equal samples: one progressive render through the `spp` checkpoints. Equal time: the same
+/// prepared strategy renders a fresh film in passes of doubling size (1, 2, 4 … samples), each
+/// pass capped to what the measured throughput predicts fits in the time left, until
+/// preparation + rendering reaches each `seconds` budget; every checkpoint has at least one
+/// sample, so a preparation longer than the budget shows as `total_s` above it.
+fn render_cell(
+    exp: &Experiment,
+    p: &Prepared,
+    spec: &StrategySpec,
+    seed: u64,
+    env: &Environment,
+    dir: &Path,
+) -> Result<Vec<Row>> {
+    let mut strategy = spec.instantiate()?;
+    let params = param_string(spec)?;
+    let start = Instant::now();
+    let phases = strategy.prepare(&p.scene, seed)?;
+    let prep_s = start.elapsed().as_secs_f64();
+    let phases = phases
+        .iter()
+        .map(|ph| format!("{}={:.6}", ph.name, ph.seconds))
+        .collect::<Vec<_>>()
+        .join(";");
+    let mut template = Row {
+        experiment: exp.name.clone(),
+        run_id: env.run_id.clone(),
+        scene: p.scene.name.clone(),
+        scene_hash: p.scene.content_hash.clone(),
+        reference_hash: p.reference.hash.clone(),
+        reference_spp: p.reference.info.spp,
+        strategy: spec.label.clone(),
+        kind: strategy.kind().to_string(),
+        params,
+        seed,
+        budget: BUDGET_SPP.to_string(),
+        budget_value: 0.0,
+        spp: 0,
+        width: p.scene.camera.width,
+        height: p.scene.camera.height,
+        threads: env.threads,
+        git_revision: env.git_revision.clone(),
+        cpu: env.cpu.clone(),
+        prep_s,
+        render_s: 0.0,
+        total_s: 0.0,
+        phases,
+        non_finite: 0,
+        mse: 0.0,
+        rmse: 0.0,
+        rel_mse: 0.0,
+        mse_trimmed: 0.0,
+        rel_mse_trimmed: 0.0,
+        rms_rel_lum: 0.0,
+        rms_rel_lum_excluded: 0,
+        efficiency: 0.0,
+        mean_r: 0.0,
+        mean_g: 0.0,
+        mean_b: 0.0,
+        image: String::new(),
+    };
+    let (width, height) = (p.scene.camera.width, p.scene.camera.height);
+    let stem = format!("{}_{}_seed{seed}", p.scene.name, spec.file_stem());
+    let mut rows = Vec::new();
+
+    // Equal samples: checkpoints of one progressive render.
+    let mut film = Film::new(width, height);
+    let (mut render_s, mut done) = (0.0, 0u32);
+    for &spp in &exp.spp {
+        let t = Instant::now();
+        strategy.render_pass(&p.scene, seed, done..spp, &mut film);
+        render_s += t.elapsed().as_secs_f64();
+        done = spp;
+        template.budget_value = spp as f64;
+        let checkpoint = Checkpoint {
+            dir,
+            stem: format!("{stem}_spp{spp}"),
+            template: &template,
+            reference: &p.reference,
+            scene: &p.scene.name,
+        };
+        rows.push(checkpoint.record(&film, spp, prep_s, render_s)?);
+    }
+
+    // Equal time: doubling passes until each budget.
+    template.budget = BUDGET_SECONDS.to_string();
+    let mut film = Film::new(width, height);
+    let (mut render_s, mut done, mut pass) = (0.0f64, 0u32, 1u32);
+    for &budget in &exp.seconds {
+        while done == 0 || (prep_s + render_s < budget && done < MAX_SPP) {
+            let left_s = budget - prep_s - render_s;
+            let per_sample_s = if done > 0 { render_s / done as f64 } else { 0.0 };
+            let fits = if per_sample_s > 0.0 {
+                (left_s / per_sample_s).clamp(1.0, u32::MAX as f64) as u32
+            } else {
+                u32::MAX
+            };
+            let n = pass.min(fits).min(MAX_SPP - done).max(1);
+            let t = Instant::now();
+            strategy.render_pass(&p.scene, seed, done..done + n, &mut film);
+            render_s += t.elapsed().as_secs_f64();
+            done += n;
+            pass = pass.saturating_mul(2);
+        }
+        template.budget_value = budget;
+        let checkpoint = Checkpoint {
+            dir,
+            stem: format!("{stem}_t{budget}s"),
+            template: &template,
+            reference: &p.reference,
+            scene: &p.scene.name,
+        };
+        rows.push(checkpoint.record(&film, done, prep_s, render_s)?);
+    }
+    Ok(rows)
 }
 
 #[cfg(test)]

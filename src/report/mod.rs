@@ -1,8 +1,28 @@
 //! Reporting: turns result rows and images into files a researcher reads: the CSV, plots and
 //! the run summary. Like [`crate::metrics`], it never sees a scene.
 
+pub mod bars;
+pub mod compare;
 pub mod convergence;
+pub mod html;
 pub mod plot;
 pub mod rows;
+pub mod stats;
 
 pub use convergence::{write_plots, write_summary};
+
+/// `bench plot`: redraws every plot of a run directory from its `metrics.csv` alone.
+pub fn redraw(run_dir: &std::path::Path) -> crate::error::Result<()> {
+    let csv = run_dir.join("metrics.csv");
+    if !csv.is_file() {
+        return Err(crate::error::Error::new(format!(
+            "{}: no metrics.csv; expected a run directory",
+            run_dir.display()
+        )));
+    }
+    let rows = rows::read_csv(&csv)?;
+    if rows.is_empty() {
+        return Err(crate::error::Error::new(format!("{}: no rows", csv.display())));
+    }
+    write_plots(&rows, run_dir)
+}

@@ -19,11 +19,11 @@ use std::sync::OnceLock;
 pub const PLOT_SIZE_PX: (u32, u32) = (960, 640);
 
 /// The font family every text element uses.
-const FONT: &str = "sans-serif";
+pub(super) const FONT: &str = "sans-serif";
 
 /// Okabe & Ito's colour-blind-safe palette (2008, "Color Universal Design"), yellow left out
 /// as it is unreadable on white; series cycle through it.
-const PALETTE: [RGBColor; 7] = [
+pub(super) const PALETTE: [RGBColor; 7] = [
     RGBColor(0, 114, 178),   // blue
     RGBColor(213, 94, 0),    // vermillion
     RGBColor(0, 158, 115),   // bluish green
@@ -45,7 +45,7 @@ pub struct Series {
 }
 
 /// Registers the vendored font once; later calls return the first call's result.
-fn register_vendored_font() -> Result<()> {
+pub(super) fn register_vendored_font() -> Result<()> {
     static REGISTERED: OnceLock<Result<()>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {
@@ -252,6 +252,22 @@ pub fn log_log_plot_sized(
     size_px: (u32, u32),
 ) -> Result<()> {
     let plot = prepare(title, x_label, y_label, series).map_err(|e| e.context(path_without_ext.display()))?;
+    write_svg_png(
+        path_without_ext,
+        size_px,
+        |root| draw(&root, &plot).map_err(|e| e.to_string()),
+        |root| draw(&root, &plot).map_err(|e| e.to_string()),
+    )
+}
+
+/// Draws a figure twice, with `draw_svg` and `draw_png` (the same drawing on two backends),
+/// into `<path_without_ext>.svg` and `<path_without_ext>.png`, `size_px` in size, atomically.
+pub(super) fn write_svg_png(
+    path_without_ext: &Path,
+    size_px: (u32, u32),
+    draw_svg: impl FnOnce(DrawingArea<SVGBackend, Shift>) -> std::result::Result<(), String>,
+    draw_png: impl FnOnce(DrawingArea<BitMapBackend, Shift>) -> std::result::Result<(), String>,
+) -> Result<()> {
     register_vendored_font()?;
     let (width, height) = size_px;
 
@@ -259,7 +275,7 @@ pub fn log_log_plot_sized(
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size_px).into_drawing_area();
-        draw(&root, &plot).map_err(|e| Error::new(format!("{}: cannot draw plot: {e}", svg_path.display())))?;
+        draw_svg(root).map_err(|e| Error::new(format!("{}: cannot draw plot: {e}", svg_path.display())))?;
     }
     write_atomic(&svg_path, svg.as_bytes())?;
 
@@ -267,7 +283,7 @@ pub fn log_log_plot_sized(
     let mut rgb = vec![0u8; width as usize * height as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut rgb, size_px).into_drawing_area();
-        draw(&root, &plot).map_err(|e| Error::new(format!("{}: cannot draw plot: {e}", png_path.display())))?;
+        draw_png(root).map_err(|e| Error::new(format!("{}: cannot draw plot: {e}", png_path.display())))?;
     }
     let image = image::RgbImage::from_raw(width, height, rgb)
         .ok_or_else(|| Error::new(format!("{}: bitmap size mismatch", png_path.display())))?;

@@ -20,6 +20,11 @@ pub struct Row {
     /// Every parameter as `key=value`, `;`-separated, defaults included.
     pub params: String,
     pub seed: u64,
+    /// The kind of budget this checkpoint belongs to: [`BUDGET_SPP`] or [`BUDGET_SECONDS`].
+    pub budget: String,
+    /// The budget: samples per pixel, or seconds of preparation + rendering.
+    pub budget_value: f64,
+    /// Samples per pixel rendered at this checkpoint.
     pub spp: u32,
     pub width: u32,
     pub height: u32,
@@ -50,6 +55,137 @@ pub struct Row {
     pub mean_b: f64,
     /// EXR image of this checkpoint, relative to the run directory.
     pub image: String,
+}
+
+/// `budget` of a checkpoint of an equal-samples render (`spp = [...]`).
+pub const BUDGET_SPP: &str = "spp";
+/// `budget` of a checkpoint of an equal-time render (`seconds = [...]`).
+pub const BUDGET_SECONDS: &str = "seconds";
+
+/// A number reported per row, with how to read it.
+pub struct Metric {
+    pub name: &'static str,
+    /// An image error (lower is better), compared by `bench compare`.
+    pub error: bool,
+    pub get: fn(&Row) -> f64,
+}
+
+/// Every metric the reports summarise over seeds, errors first.
+pub const METRICS: &[Metric] = &[
+    Metric {
+        name: "mse",
+        error: true,
+        get: |r| r.mse,
+    },
+    Metric {
+        name: "rmse",
+        error: true,
+        get: |r| r.rmse,
+    },
+    Metric {
+        name: "rel_mse",
+        error: true,
+        get: |r| r.rel_mse,
+    },
+    Metric {
+        name: "mse_trimmed",
+        error: true,
+        get: |r| r.mse_trimmed,
+    },
+    Metric {
+        name: "rel_mse_trimmed",
+        error: true,
+        get: |r| r.rel_mse_trimmed,
+    },
+    Metric {
+        name: "rms_rel_lum",
+        error: true,
+        get: |r| r.rms_rel_lum,
+    },
+    Metric {
+        name: "spp",
+        error: false,
+        get: |r| r.spp as f64,
+    },
+    Metric {
+        name: "total_s",
+        error: false,
+        get: |r| r.total_s,
+    },
+    Metric {
+        name: "efficiency",
+        error: false,
+        get: |r| r.efficiency,
+    },
+];
+
+/// The rows of one checkpoint over seeds: same scene, strategy, parameters and budget.
+pub struct Group<'a> {
+    pub scene: &'a str,
+    pub strategy: &'a str,
+    pub params: &'a str,
+    pub budget: &'a str,
+    pub budget_value: f64,
+    pub rows: Vec<&'a Row>,
+}
+
+impl Group<'_> {
+    /// One metric over the group's seeds.
+    pub fn values(&self, get: fn(&Row) -> f64) -> Vec<f64> {
+        self.rows.iter().map(|r| get(r)).collect()
+    }
+
+    /// The budget as people write it: `64 spp` or `0.5 s`.
+    pub fn budget_label(&self) -> String {
+        budget_label(self.budget, self.budget_value)
+    }
+}
+
+/// `64 spp` or `0.5 s`.
+pub fn budget_label(budget: &str, value: f64) -> String {
+    if budget == BUDGET_SECONDS {
+        format!("{value} s")
+    } else {
+        format!("{value} spp")
+    }
+}
+
+/// Rows grouped by checkpoint, in first-seen order.
+pub fn group(rows: &[Row]) -> Vec<Group<'_>> {
+    let mut out: Vec<Group> = Vec::new();
+    for r in rows {
+        let same = |g: &&mut Group| {
+            g.scene == r.scene
+                && g.strategy == r.strategy
+                && g.params == r.params
+                && g.budget == r.budget
+                && g.budget_value.to_bits() == r.budget_value.to_bits()
+        };
+        match out.iter_mut().find(|g| same(g)) {
+            Some(g) => g.rows.push(r),
+            None => out.push(Group {
+                scene: &r.scene,
+                strategy: &r.strategy,
+                params: &r.params,
+                budget: &r.budget,
+                budget_value: r.budget_value,
+                rows: vec![r],
+            }),
+        }
+    }
+    out
+}
+
+/// Distinct values of a column in first-seen order.
+pub fn distinct<'a>(rows: &'a [Row], column: impl Fn(&'a Row) -> &'a str) -> Vec<&'a str> {
+    let mut out: Vec<&str> = Vec::new();
+    for r in rows {
+        let v = column(r);
+        if !out.contains(&v) {
+            out.push(v);
+        }
+    }
+    out
 }
 
 /// Writes rows as CSV with a header, atomically.

@@ -1,0 +1,164 @@
+//! `index.html`: one page that shows a run — plots, bar charts, image strips, images and error
+//! maps, and a table of the largest checkpoints — from the result rows alone. Every link is
+//! relative and nothing external is loaded, so the page opens offline, straight from disk.
+
+use super::rows::{BUDGET_SECONDS, BUDGET_SPP, Group, Row, distinct, group};
+use super::stats::{CONFIDENCE, Summary};
+use crate::error::Result;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The image strip of `scene` at a checkpoint, relative to the run directory: every strategy
+/// of the first seed side by side, in the experiment's order, then the reference.
+pub fn strip_path(scene: &str, budget: &str, value: f64) -> String {
+    if budget == BUDGET_SECONDS {
+        format!("images/{scene}_strip_t{value}s.png")
+    } else {
+        format!("images/{scene}_strip_spp{value}.png")
+    }
+}
+
+/// Escapes text for HTML.
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+const STYLE: &str = "body{font-family:sans-serif;margin:2em;max-width:1400px}\
+img{max-width:100%}figure{display:inline-block;margin:0.5em;vertical-align:top}\
+figcaption{font-size:90%;max-width:480px;word-wrap:break-word}\
+.px img{image-rendering:pixelated;width:240px}.strip img{image-rendering:pixelated;min-width:720px}\
+.plot img{width:640px}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:0.2em 0.6em}\
+td{text-align:right}td:first-child{text-align:left}";
+
+/// Writes `index.html` into the run directory `dir`. Files that a run did not write (a plot
+/// without data, a strip without images) are left out of the page.
+pub fn write_index(rows: &[Row], dir: &Path) -> Result<()> {
+    let mut h = String::new();
+    let first = rows.first();
+    let name = first.map_or("run", |r| r.experiment.as_str());
+    let _ = write!(
+        h,
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title><style>{STYLE}</style></head><body>\n<h1>{}</h1>\n",
+        esc(name),
+        esc(name)
+    );
+    if let Some(r) = first {
+        let _ = writeln!(
+            h,
+            "<p>Run <code>{}</code> · git <code>{}</code> · {} threads · {}</p>",
+            esc(&r.run_id),
+            esc(&r.git_revision),
+            r.threads,
+            esc(&r.cpu)
+        );
+    }
+    let _ = writeln!(
+        h,
+        "<p><a href=\"metrics.csv\">metrics.csv</a> · <a href=\"summary.md\">summary.md</a> · \
+         <a href=\"experiment.toml\">experiment.toml</a></p>"
+    );
+    let exists = |rel: &str| dir.join(rel).exists();
+    let figure = |h: &mut String, class: &str, src: &str, caption: &str| {
+        if exists(src) {
+            let _ = writeln!(
+                h,
+                "<figure class=\"{class}\"><a href=\"{0}\"><img src=\"{0}\" alt=\"{1}\"></a><figcaption>{1}</figcaption></figure>",
+                esc(src),
+                esc(caption)
+            );
+        }
+    };
+    let groups = group(rows);
+    for scene in distinct(rows, |r| &r.scene) {
+        let _ = writeln!(h, "<h2>{}</h2>", esc(scene));
+        let _ = writeln!(h, "<h3>Convergence and bars</h3>");
+        for (file, caption) in [
+            ("mse_vs_spp", "MSE vs samples per pixel"),
+            ("mse_vs_time", "MSE vs time"),
+            ("mse_equal_time", "MSE at equal time"),
+            ("mse_equal_spp", "MSE at equal samples"),
+            ("timing", "time per phase"),
+        ] {
+            figure(&mut h, "plot", &format!("plots/{scene}_{file}.svg"), caption);
+        }
+
+        // The largest checkpoint of each budget kind.
+        let largest: Vec<Vec<&Group>> = [BUDGET_SPP, BUDGET_SECONDS]
+            .iter()
+            .filter_map(|&budget| {
+                let of = || groups.iter().filter(|g| g.scene == scene && g.budget == budget);
+                let top = of().map(|g| g.budget_value).reduce(f64::max)?;
+                Some(of().filter(|g| g.budget_value == top).collect())
+            })
+            .collect();
+        let _ = writeln!(
+            h,
+            "<h3>Largest checkpoints</h3>\n<table><tr><th>strategy</th><th>budget</th><th>n</th><th>MSE</th>\
+             <th>{:.0} % CI</th><th>relMSE</th><th>spp</th><th>seconds</th></tr>",
+            CONFIDENCE * 100.0
+        );
+        for g in largest.iter().flatten() {
+            let mse = Summary::of(&g.values(|r| r.mse));
+            let ci = mse.ci.map_or("–".into(), |(lo, hi)| format!("[{lo:.3e}, {hi:.3e}]"));
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4e}</td><td>{ci}</td><td>{:.4e}</td><td>{:.0}</td><td>{:.3}</td></tr>",
+                esc(g.strategy),
+                esc(&g.budget_label()),
+                mse.n,
+                mse.mean,
+                super::stats::mean(&g.values(|r| r.rel_mse)),
+                super::stats::mean(&g.values(|r| r.spp as f64)),
+                super::stats::mean(&g.values(|r| r.total_s)),
+            );
+        }
+        let _ = writeln!(h, "</table>");
+
+        let _ = writeln!(h, "<h3>Images</h3>");
+        for at in &largest {
+            let Some(g) = at.first() else { continue };
+            let labels: Vec<&str> = at.iter().map(|g| g.strategy).collect();
+            figure(
+                &mut h,
+                "strip",
+                &strip_path(scene, g.budget, g.budget_value),
+                &format!(
+                    "{}, first seed, left to right: {}, reference",
+                    g.budget_label(),
+                    labels.join(", ")
+                ),
+            );
+        }
+        let _ = writeln!(h, "<br>");
+        for g in largest.iter().flatten() {
+            let Some(r) = g.rows.first() else { continue };
+            let png = Path::new(&r.image).with_extension("png").display().to_string();
+            let error = png.replace(".png", "_error.png");
+            let what = format!("{} · {} · seed {}", g.strategy, g.budget_label(), r.seed);
+            figure(&mut h, "px", &png, &what);
+            figure(
+                &mut h,
+                "px",
+                &error,
+                &format!("{what} · relative error (log viridis, 0.1 % … 1000 %)"),
+            );
+        }
+    }
+    let _ = writeln!(h, "</body></html>");
+    crate::util::write_atomic(&dir.join("index.html"), h.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escaping_and_strip_names() {
+        assert_eq!(esc("a<b>&\"c\""), "a&lt;b&gt;&amp;&quot;c&quot;");
+        assert_eq!(strip_path("box", "spp", 64.0), "images/box_strip_spp64.png");
+        assert_eq!(strip_path("box", "seconds", 0.5), "images/box_strip_t0.5s.png");
+    }
+}
