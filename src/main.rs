@@ -91,7 +91,28 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Usage errors keep the one-line `error: …` / exit 2 promise; help and version print as usual.
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e)
+            if matches!(
+                e.kind(),
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion
+            ) =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            let text = e.to_string();
+            let first = text
+                .lines()
+                .next()
+                .unwrap_or("invalid arguments")
+                .trim_start_matches("error: ");
+            eprintln!("error: {first} (see `bench --help`)");
+            return ExitCode::from(2);
+        }
+    };
     match run(cli) {
         Ok(Status::Success) => ExitCode::SUCCESS,
         Ok(Status::Regression) => ExitCode::from(1),

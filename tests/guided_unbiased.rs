@@ -34,7 +34,7 @@ fn photon_guided_agrees_with_path_on_cornell_empty() {
     assert!(se0 < 0.01 * m0, "baseline precise enough: {m0} ± {se0}");
     for params in [
         "photons = 20000",
-        "photons = 20000\nempty_cells = \"each\"",
+        "photons = 20000\nempty_cells = \"shared\"",
         "photons = 20000\nbsdf_mixture = 0.25",
     ] {
         let (m, se) = mean_and_se(&scene, "photon_guided", params, 8, 32);

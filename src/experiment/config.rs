@@ -338,8 +338,19 @@ pub fn describe_toml_error(e: &toml::de::Error, text: &str) -> String {
     match e.span() {
         Some(span) => {
             let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            let col = span.start - text[..span.start.min(text.len())].rfind('\n').map_or(0, |p| p + 1) + 1;
-            format!("line {line}, column {col}: {msg}")
+            let line_start = text[..span.start.min(text.len())].rfind('\n').map_or(0, |p| p + 1);
+            let col = span.start - line_start + 1;
+            // Name the key of a `key = value` line, so that type and range errors say which field.
+            let line_text = text[line_start..].lines().next().unwrap_or("");
+            let key = line_text.split_once('=').map(|(k, _)| k.trim()).filter(|k| {
+                !k.is_empty()
+                    && k.chars()
+                        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
+            });
+            match key {
+                Some(key) if !msg.contains(&format!("`{key}`")) => format!("line {line}, column {col}: {key}: {msg}"),
+                _ => format!("line {line}, column {col}: {msg}"),
+            }
         }
         None => msg,
     }

@@ -117,6 +117,19 @@ pub fn describe() -> Vec<KindInfo> {
     kinds
 }
 
+/// Deserialises a parameter table; an error names the offending key when one alone fails
+/// (every parameter struct has defaults, so a single key is a valid table on its own).
 fn parse_params<T: serde::de::DeserializeOwned>(params: toml::Table) -> Result<T> {
-    T::deserialize(toml::Value::Table(params)).map_err(|e| Error::new(e.message().to_string()))
+    T::deserialize(toml::Value::Table(params.clone())).map_err(|e| {
+        let culprit = params.iter().find(|(key, value)| {
+            let alone: toml::Table = [((*key).clone(), (*value).clone())].into_iter().collect();
+            T::deserialize(toml::Value::Table(alone)).is_err()
+        });
+        match culprit {
+            Some((key, _)) if !e.message().contains(&format!("`{key}`")) => {
+                Error::new(format!("{key}: {}", e.message()))
+            }
+            _ => Error::new(e.message().to_string()),
+        }
+    })
 }
