@@ -7,6 +7,8 @@
 //! method. Quantiles invert the CDF by bisection to machine precision, so small samples (two or
 //! three seeds) get exact intervals rather than a normal approximation.
 
+use crate::sampling::chi2::ln_gamma;
+
 /// Mean of `v` (NaN for an empty slice).
 pub fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
@@ -44,34 +46,6 @@ impl Summary {
         });
         Summary { n, mean, std_dev, ci }
     }
-}
-
-/// ln Γ(x) for x > 0 (Lanczos approximation, g = 7, nine coefficients; ~15 digits).
-pub fn ln_gamma(x: f64) -> f64 {
-    const G: f64 = 7.0;
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        // Reflection: Γ(x) Γ(1 − x) = π / sin(πx).
-        let pi = std::f64::consts::PI;
-        return (pi / (pi * x).sin()).abs().ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut sum = C[0];
-    for (i, &c) in C.iter().enumerate().skip(1) {
-        sum += c / (x + i as f64);
-    }
-    let t = x + G + 0.5;
-    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + sum.ln()
 }
 
 /// Continued fraction of the incomplete beta function (A&S 26.5.8), modified Lentz method.
