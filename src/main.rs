@@ -59,7 +59,8 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// Measure throughput of `path` (paths/s, rays/s, raw BVH closest-hit rays/s) on a scene.
+    /// Measure throughput: `path` paths/s, rays/s and raw BVH closest-hit rays/s; photons/s,
+    /// k-NN queries/s and guided-pdf builds/s.
     Perf {
         /// The scene (default: Mitsuba 3's Cornell box at 256×256, the peer's benchmark scene).
         #[arg(long, default_value = "scenes/cornell-box.toml")]
@@ -236,6 +237,18 @@ fn run_command(command: Command) -> Result<Status> {
             println!(
                 "  raw closest-hit/s  {:>12.0}  (BVH only, same rays)",
                 r.raw_closest_rays_per_s
+            );
+            println!(
+                "  photons/s          {:>12.0}  ({} stored of 200000 emitted)",
+                r.photons_per_s, r.photons_stored
+            );
+            println!(
+                "  k-NN queries/s     {:>12.0}  (k = 50, global map)",
+                r.knn_queries_per_s
+            );
+            println!(
+                "  guided pdfs/s      {:>12.0}  (k-NN + 4x16 grid, Jensen 1995)",
+                r.guided_pdfs_per_s
             );
             if let Some(path) = csv {
                 photon_bench::perf::append_csv(&r, &path)?;

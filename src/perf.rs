@@ -13,7 +13,7 @@ use crate::sampling::Rng;
 use crate::scene::Scene;
 use crate::strategy::path::{PathParams, RayTally, radiance, radiance_traced};
 use crate::strategy::stream;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -32,6 +32,14 @@ pub struct PerfReport {
     pub shadow_rays: u64,
     pub rays_per_s: f64,
     pub raw_closest_rays_per_s: f64,
+    /// Photon paths emitted per second by photon tracing (all threads).
+    pub photons_per_s: f64,
+    /// Photons stored in the global map by that tracing.
+    pub photons_stored: u64,
+    /// k-nearest queries per second (k = 50) on that map, at surface points seen by the camera.
+    pub knn_queries_per_s: f64,
+    /// Jensen 1995 guiding grids (4 × 16) built per second from those queries' photons.
+    pub guided_pdfs_per_s: f64,
     pub cpu: String,
     pub git_revision: String,
 }
@@ -111,7 +119,12 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
     let raw_s = start.elapsed().as_secs_f64();
     std::hint::black_box(hits);
 
+    let photons = measure_photons(scene, seed);
     PerfReport {
+        photons_per_s: photons.0,
+        photons_stored: photons.1,
+        knn_queries_per_s: photons.2,
+        guided_pdfs_per_s: photons.3,
         scene: scene.name.clone(),
         width: scene.camera.width,
         height: scene.camera.height,
@@ -127,6 +140,58 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
         cpu: crate::util::cpu_model(),
         git_revision: crate::util::git_revision(),
     }
+}
+
+/// Photon tracing (200 000 paths), then k = 50 nearest queries at the first hits of camera
+/// rays and Jensen grids built from their photons: (photons/s, stored, queries/s, grids/s).
+fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
+    use crate::photon::{PhotonMap, TraceParams, trace_photons};
+    use crate::sampling::photon_grid::{EmptyCells, PhotonGrid};
+    let params = TraceParams {
+        photons: 200_000,
+        ..TraceParams::default()
+    };
+    let start = Instant::now();
+    let traced = trace_photons(scene, &params, seed);
+    let photons_per_s = params.photons as f64 / start.elapsed().as_secs_f64();
+    let stored = traced.global.len() as u64;
+    let map = PhotonMap::build(traced.global);
+    let pixels = scene.camera.pixel_count();
+    let queries: Vec<(Vec3, Vec3)> = (0..pixels)
+        .step_by((pixels / 100_000).max(1))
+        .filter_map(|pixel| {
+            let (ray, _) = camera_ray(scene, seed + 1, pixel, 0);
+            scene.intersect(&ray).map(|h| (h.p, h.frame.n))
+        })
+        .collect();
+    let start = Instant::now();
+    let found: usize = queries
+        .par_iter()
+        .map_init(Vec::new, |buf, &(p, _)| {
+            map.tree().k_nearest_into(p, 50, f32::INFINITY, |_| true, buf);
+            buf.len()
+        })
+        .sum();
+    let knn_s = start.elapsed().as_secs_f64();
+    std::hint::black_box(found);
+    let start = Instant::now();
+    let grids: usize = queries
+        .par_iter()
+        .map_init(Vec::new, |buf, &(p, n)| {
+            map.tree()
+                .k_nearest_into(p, 50, f32::INFINITY, |ph| ph.direction().dot(n) > 0.0, buf);
+            let frame = crate::geometry::Frame::from_normal(n);
+            let dirs = buf.iter().map(|nb| {
+                let ph = &map.photons()[nb.index as usize];
+                (frame.to_local(ph.direction()), crate::scene::luminance(ph.power()))
+            });
+            PhotonGrid::build(dirs, 4, 16, 0.01, EmptyCells::Each).cell_count()
+        })
+        .sum();
+    let grid_s = start.elapsed().as_secs_f64();
+    std::hint::black_box(grids);
+    let q = queries.len().max(1) as f64;
+    (photons_per_s, stored, q / knn_s, q / grid_s)
 }
 
 /// Appends `report` to a CSV file (header written when the file is new).
