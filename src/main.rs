@@ -32,6 +32,18 @@ enum Command {
         /// Render every cell again instead of reusing cached cells (and replace the cache).
         #[arg(long)]
         force: bool,
+        /// Render only shard i of n (1 <= i <= n, e.g. $SLURM_ARRAY_TASK_ID/16) into the cell
+        /// cache; assemble the run afterwards with `bench merge`.
+        #[arg(long)]
+        shard: Option<String>,
+    },
+    /// Join shard outputs into one run: import cells, check that none is missing, assemble.
+    Merge {
+        /// The experiment file the shards ran.
+        experiment: PathBuf,
+        /// Other machines' `results/<name>/cells` directories to import (none when the shards
+        /// shared a file system).
+        cells: Vec<PathBuf>,
     },
     /// Render a converged reference image of a scene with `path` into references/.
     Reference {
@@ -167,7 +179,32 @@ fn run_command(command: Command) -> Result<Status> {
                 Status::Success
             })
         }
-        Command::Run { experiment, force } => {
+        Command::Run {
+            experiment,
+            force,
+            shard: Some(shard),
+        } => {
+            let shard = experiment::Shard::parse(&shard)?;
+            let exp = Experiment::load(&experiment)?;
+            let (cached, rendered) = experiment::run_shard(&exp, force, shard)?;
+            eprintln!(
+                "shard {}/{}: {cached} cells cached, {rendered} rendered",
+                shard.index + 1,
+                shard.count
+            );
+            Ok(Status::Success)
+        }
+        Command::Merge { experiment, cells } => {
+            let exp = Experiment::load(&experiment)?;
+            let outcome = experiment::merge(&exp, &cells)?;
+            println!("{}", outcome.dir.display());
+            Ok(Status::Success)
+        }
+        Command::Run {
+            experiment,
+            force,
+            shard: None,
+        } => {
             let exp = Experiment::load(&experiment)?;
             let outcome = experiment::run(&exp, force)?;
             eprintln!("cells: {} cached, {} rendered", outcome.cached, outcome.rendered);

@@ -386,3 +386,76 @@ fn a_killed_run_resumes_from_its_cached_cells_with_identical_results() {
         assert!(resumed.join(&r.image).exists(), "{}", r.image);
     }
 }
+
+/// Copies a project directory (scenes, experiments, references) to a fresh temporary one, as
+/// a second cluster machine would check it out.
+fn clone_project(from: &Path) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for sub in ["scenes", "experiments", "references"] {
+        std::fs::create_dir_all(dir.path().join(sub)).unwrap();
+        for e in std::fs::read_dir(from.join(sub)).unwrap() {
+            let e = e.unwrap();
+            std::fs::copy(e.path(), dir.path().join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    dir
+}
+
+/// The error metrics of a run, in a fixed order.
+fn error_metrics(run: &Path) -> Vec<(String, u64, u32, u64)> {
+    let mut rows: Vec<_> = photon_bench::report::rows::read_csv(&run.join("metrics.csv"))
+        .unwrap()
+        .into_iter()
+        .map(|r| (r.strategy, r.seed, r.spp, r.mse.to_bits()))
+        .collect();
+    rows.sort();
+    rows
+}
+
+#[test]
+fn shards_on_two_machines_merge_into_the_results_of_one_run() {
+    let a = project();
+    let ra = a.path();
+    assert!(
+        bench(ra, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let b = clone_project(ra);
+    let rb = b.path();
+
+    let o = bench(ra, &["run", "experiments/tiny.toml", "--shard", "1/2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(run_dirs(ra).is_empty(), "a shard assembles no run");
+    // Half the plan is missing on machine A: merging now is refused, nothing assembled.
+    assert_refused(&bench(ra, &["merge", "experiments/tiny.toml"]), &["missing", "--shard"]);
+    assert!(run_dirs(ra).is_empty());
+
+    let o = bench(rb, &["run", "experiments/tiny.toml", "--shard", "2/2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        cached_cells(ra).len() + cached_cells(rb).len(),
+        4,
+        "the shards split the 4 cells"
+    );
+    let cells_b = rb.join("results/tiny/cells");
+    let o = bench(ra, &["merge", "experiments/tiny.toml", cells_b.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let merged = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+    let merged = if merged.is_absolute() { merged } else { ra.join(merged) };
+
+    let o = bench(ra, &["run", "experiments/tiny.toml", "--force"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let single = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+    let single = if single.is_absolute() { single } else { ra.join(single) };
+    assert_eq!(
+        error_metrics(&merged),
+        error_metrics(&single),
+        "bit-identical error metrics"
+    );
+
+    assert_refused(
+        &bench(ra, &["run", "experiments/tiny.toml", "--shard", "3/2"]),
+        &["--shard"],
+    );
+}

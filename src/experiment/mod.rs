@@ -5,4 +5,4 @@ pub mod reference;
 pub mod run;
 
 pub use config::Experiment;
-pub use run::run;
+pub use run::{Shard, merge, run, run_shard};

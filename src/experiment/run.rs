@@ -42,16 +42,152 @@ pub struct Outcome {
     pub rendered: usize,
 }
 
-/// Runs `exp` and returns the directory holding its results. Cached cells are reused unless
-/// `force`, which renders every cell again and replaces its cache entry.
-pub fn run(exp: &Experiment, force: bool) -> Result<Outcome> {
-    // Refuse bad input before anything is written.
+/// Loads every scene with its reference, refusing bad input before anything is written.
+fn prepare_all(exp: &Experiment) -> Result<Vec<Prepared>> {
     let mut prepared = Vec::new();
     for path in &exp.scenes {
         let scene = load_scene(path)?;
         let reference = reference::load(&exp.references, &scene)?;
         prepared.push(Prepared { scene, reference });
     }
+    Ok(prepared)
+}
+
+/// One shard of an experiment for clusters: `index` of `count` (0 ≤ index < count).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl Shard {
+    /// Parses `i/n` (1 ≤ i ≤ n, as job arrays count) into the 0-based shard.
+    pub fn parse(text: &str) -> Result<Shard> {
+        let bad = || crate::error::Error::new(format!("--shard: expected i/n with 1 <= i <= n, got `{text}`"));
+        let (i, n) = text.split_once('/').ok_or_else(bad)?;
+        let (i, n): (usize, usize) = (
+            i.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if i == 0 || i > n {
+            return Err(bad());
+        }
+        Ok(Shard { index: i - 1, count: n })
+    }
+
+    /// Whether the cell at plan position `k` belongs to this shard (round robin, so every
+    /// shard gets a similar mix of scenes and strategies).
+    fn owns(&self, k: usize) -> bool {
+        k % self.count == self.index
+    }
+}
+
+/// Renders only the cells of `shard` into the cell cache (`<output>/<name>/cells/`) and
+/// assembles no run: `bench merge` (or a plain `bench run`) assembles the run once every shard
+/// has finished. Returns (cached, rendered) cell counts. Shards must run the same binary: the
+/// cell hash includes it.
+pub fn run_shard(exp: &Experiment, force: bool, shard: Shard) -> Result<(usize, usize)> {
+    let prepared = prepare_all(exp)?;
+    let env = Environment {
+        run_id: format!("shard-{}-of-{}", shard.index + 1, shard.count),
+        threads: rayon::current_num_threads(),
+        git_revision: crate::util::git_revision(),
+        cpu: crate::util::cpu_model(),
+    };
+    let cells_dir = exp.output.join(&exp.name).join("cells");
+    let (mut cached, mut rendered) = (0, 0);
+    for (k, (p, spec, seed)) in plan(exp, &prepared).enumerate() {
+        if !shard.owns(k) {
+            continue;
+        }
+        let params = param_string(spec)?;
+        let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+        if !force && load_cell(&cells_dir.join(&hash)).is_some() {
+            cached += 1;
+        } else {
+            store_cell(&cells_dir, &hash, |tmp| render_cell(exp, p, spec, seed, &env, tmp))?;
+            rendered += 1;
+        }
+    }
+    Ok((cached, rendered))
+}
+
+/// Joins shard outputs into one run: copies the cells found under each of `imports` (other
+/// machines' `<output>/<name>/cells/` directories; empty when the shards shared a file
+/// system) into this cell cache, refuses if any cell of the plan is still missing, and
+/// assembles the run from the cache (rendering nothing).
+pub fn merge(exp: &Experiment, imports: &[PathBuf]) -> Result<Outcome> {
+    let prepared = prepare_all(exp)?;
+    let cells_dir = exp.output.join(&exp.name).join("cells");
+    let mut missing = 0;
+    for (p, spec, seed) in plan(exp, &prepared) {
+        let params = param_string(spec)?;
+        let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+        let cell = cells_dir.join(&hash);
+        if load_cell(&cell).is_some() {
+            continue;
+        }
+        match imports.iter().map(|d| d.join(&hash)).find(|c| load_cell(c).is_some()) {
+            Some(source) => copy_cell(&source, &cells_dir, &hash)?,
+            None => missing += 1,
+        }
+    }
+    if missing > 0 {
+        return Err(crate::error::Error::new(format!(
+            "{}: {missing} cell(s) of the plan are in no shard output; run the missing shards (bench run {} --shard i/n) with the same binary, or pass their cells directories",
+            exp.file.display(),
+            exp.file.display()
+        )));
+    }
+    run(exp, false)
+}
+
+/// Copies a complete cell directory into the cache under `hash`, atomically.
+fn copy_cell(source: &Path, cells: &Path, hash: &str) -> Result<()> {
+    store_cell(cells, hash, |tmp| {
+        let rows = read_csv(&source.join("rows.csv"))?;
+        for r in &rows {
+            for rel in image_files(Path::new(&r.image)) {
+                let from = source.join(&rel);
+                std::fs::copy(&from, tmp.join(&rel)).context(from.display())?;
+            }
+        }
+        Ok(rows)
+    })
+    .map(|_| ())
+}
+
+/// The files of one checkpoint image: the EXR, its PNG preview and its error map
+/// (`x.exr`, `x.png`, `x_error.png`), as paths relative to a cell or run directory.
+fn image_files(exr: &Path) -> [PathBuf; 3] {
+    let stem = exr
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    [
+        exr.to_path_buf(),
+        exr.with_extension("png"),
+        exr.with_file_name(format!("{stem}_error.png")),
+    ]
+}
+
+/// Every cell of the experiment in plan order: scene, strategy, seed.
+fn plan<'a>(
+    exp: &'a Experiment,
+    prepared: &'a [Prepared],
+) -> impl Iterator<Item = (&'a Prepared, &'a StrategySpec, u64)> {
+    prepared.iter().flat_map(move |p| {
+        exp.strategies
+            .iter()
+            .flat_map(move |spec| exp.seeds.iter().map(move |&seed| (p, spec, seed)))
+    })
+}
+
+/// Runs `exp` and returns the directory holding its results. Cached cells are reused unless
+/// `force`, which renders every cell again and replaces its cache entry.
+pub fn run(exp: &Experiment, force: bool) -> Result<Outcome> {
+    // Refuse bad input before anything is written.
+    let prepared = prepare_all(exp)?;
 
     let base = exp.output.join(&exp.name);
     let run_id = new_run_id(&base);
@@ -144,17 +280,7 @@ fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec
 /// Links (or copies, across file systems) a cell's images into the run directory.
 fn link_images(cell: &Path, rows: &[Row], dir: &Path) -> Result<()> {
     for r in rows {
-        let exr = PathBuf::from(&r.image);
-        let stem = exr
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let siblings = [
-            exr.clone(),
-            exr.with_extension("png"),
-            exr.with_file_name(format!("{stem}_error.png")),
-        ];
-        for rel in siblings {
+        for rel in image_files(Path::new(&r.image)) {
             let (from, to) = (cell.join(&rel), dir.join(&rel));
             if std::fs::hard_link(&from, &to).is_err() {
                 std::fs::copy(&from, &to).context(from.display())?;
