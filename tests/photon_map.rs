@@ -1,0 +1,110 @@
+//! `photon_map`: photon mapping with final gathering agrees with the committed reference (image
+//! means), the precomputed-irradiance variant agrees with direct lookups, and bad parameters are
+//! refused. (1 vs 2 threads: `tests/determinism.rs` covers every kind.)
+
+use photon_bench::film::{Film, Image, read_exr};
+use photon_bench::metrics::compare;
+use photon_bench::scene::load::load_scene_bytes;
+use photon_bench::scene::{Scene, luminance};
+use photon_bench::strategy::{self, Strategy};
+use std::path::Path;
+
+/// `cornell-empty` at 32 × 24.
+fn small_cornell_empty() -> Scene {
+    let text = std::fs::read_to_string("scenes/cornell-empty.toml").unwrap();
+    assert!(text.contains("resolution = [80, 60]"));
+    let text = text.replace("resolution = [80, 60]", "resolution = [32, 24]");
+    load_scene_bytes(Path::new("scenes/cornell-empty.toml"), text.as_bytes())
+        .unwrap()
+        .0
+}
+
+fn render(scene: &Scene, kind: &str, params: &str, seed: u64, spp: u32) -> Image {
+    let table: toml::Table = toml::from_str(params).unwrap();
+    let mut s = strategy::build(kind, table).unwrap();
+    s.prepare(scene, seed).unwrap();
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    s.render_pass(scene, seed, 0..spp, &mut film);
+    film.image()
+}
+
+const MANY_PHOTONS: &str = "photons = 1000000\nmax_radius = 0.02\ngather_rays = 64";
+
+#[test]
+fn final_gather_mean_matches_the_reference() {
+    let scene = small_cornell_empty();
+    let reference = read_exr(Path::new("references/cornell-empty.exr")).unwrap();
+    let want = luminance(reference.mean()) as f64;
+    let params = std::env::var("PM_PARAMS").unwrap_or(MANY_PHOTONS.to_string());
+    let img = render(&scene, "photon_map", &params, 3, 4);
+    let got = luminance(img.mean()) as f64;
+    let rel = (got - want).abs() / want;
+    eprintln!("photon_map mean {got:.5}, reference {want:.5}, relative error {rel:.4}");
+    assert!(rel < 0.02, "photon_map mean {got} vs reference {want}: {rel:.4}");
+}
+
+#[test]
+fn precomputed_irradiance_agrees_with_direct_lookups() {
+    let scene = small_cornell_empty();
+    let direct = render(&scene, "photon_map", "photons = 400000", 5, 2);
+    let pre = render(
+        &scene,
+        "photon_map",
+        "photons = 400000\nprecomputed_irradiance = { every = 4, normal_dot = 0.9 }",
+        5,
+        2,
+    );
+    let path = render(&scene, "path", "", 11, 64);
+    let between = compare(&pre, &direct).unwrap().mse;
+    let direct_path = compare(&direct, &path).unwrap().mse;
+    let pre_path = compare(&pre, &path).unwrap().mse;
+    eprintln!("MSE pre vs direct {between:.3e}, direct vs path {direct_path:.3e}, pre vs path {pre_path:.3e}");
+    assert!(between < 0.2 * direct_path.min(pre_path), "{between} vs {direct_path}, {pre_path}");
+}
+
+#[test]
+fn parameters_are_checked() {
+    let build = |text: &str| strategy::build("photon_map", toml::from_str(text).unwrap());
+    assert!(build("").is_ok());
+    assert!(build("precomputed_irradiance = {}").is_ok());
+    for bad in [
+        "photon = 5",
+        "photons = 0",
+        "nearest = 0",
+        "caustic_nearest = 0",
+        "max_radius = 0.0",
+        "max_radius = -1.0",
+        "max_radius = inf",
+        "gather_rays = 0",
+        "short_gather = -0.5",
+        "photons = \"many\"",
+        "precomputed_irradiance = { every = 0 }",
+        "precomputed_irradiance = { normal_dot = 2.0 }",
+        "precomputed_irradiance = { every = 4, k = 1 }",
+    ] {
+        let err = build(bad).err().unwrap_or_else(|| panic!("`{bad}` was accepted"));
+        assert!(!err.to_string().is_empty());
+    }
+}
+
+#[test]
+fn kind_is_registered() {
+    assert!(strategy::KINDS.contains(&"photon_map"));
+    assert!(strategy::describe().iter().any(|k| k.kind == "photon_map"));
+}
+
+/// Timings for the report: `cargo test --release --test photon_map timings -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn timings() {
+    let scene = photon_bench::scene::load_scene(Path::new("scenes/cornell-spheres.toml")).unwrap();
+    for params in ["", "precomputed_irradiance = {}"] {
+        let table: toml::Table = toml::from_str(params).unwrap();
+        let mut s = strategy::build("photon_map", table).unwrap();
+        let phases = s.prepare(&scene, 7).unwrap();
+        let start = std::time::Instant::now();
+        let mut film = Film::new(scene.camera.width, scene.camera.height);
+        s.render_pass(&scene, 7, 0..4, &mut film);
+        eprintln!("`{params}`: prepare {phases:?}, render 4 spp {:.2} s", start.elapsed().as_secs_f64());
+    }
+}
