@@ -28,19 +28,35 @@ fn render(scene: &Scene, kind: &str, params: &str, seed: u64, spp: u32) -> Image
     film.image()
 }
 
-const MANY_PHOTONS: &str = "photons = 1000000\nmax_radius = 0.02\ngather_rays = 64";
+/// Mean luminance of rows `first_row..`: the top rows show the ceiling's hot spot above the
+/// light, a few pixels whose noise (at a few samples) dominates the image mean.
+fn mean_below(img: &Image, first_row: u32) -> f64 {
+    let w = img.width as usize;
+    let rows = &img.pixels[first_row as usize * w..];
+    rows.iter().map(|p| luminance(*p) as f64).sum::<f64>() / rows.len() as f64
+}
 
+const MANY_PHOTONS: &str = "photons = 1000000\nnearest = 100\nmax_radius = 0.02\ngather_rays = 64";
+
+/// Image means, resolution-independent up to the pixel filter, compared over the rows below
+/// the ceiling's hot spot, averaged over three seeds (photon map and camera samples). Measured
+/// spread of one seed's mean at these settings: ±2.5 %; the N-nearest estimate itself is biased
+/// up by about N / (N − 1). A stray cosine factor (≈ 2/3 on average) is far outside.
 #[test]
 fn final_gather_mean_matches_the_reference() {
     let scene = small_cornell_empty();
     let reference = read_exr(Path::new("references/cornell-empty.exr")).unwrap();
-    let want = luminance(reference.mean()) as f64;
-    let params = std::env::var("PM_PARAMS").unwrap_or(MANY_PHOTONS.to_string());
-    let img = render(&scene, "photon_map", &params, 3, 4);
-    let got = luminance(img.mean()) as f64;
+    // Rows 4.. of the 32 × 24 image cover exactly rows 10.. of the 80 × 60 reference.
+    let want = mean_below(&reference, 10);
+    let seeds = [1, 2, 3];
+    let got = seeds
+        .iter()
+        .map(|&seed| mean_below(&render(&scene, "photon_map", MANY_PHOTONS, seed, 4), 4))
+        .sum::<f64>()
+        / seeds.len() as f64;
     let rel = (got - want).abs() / want;
     eprintln!("photon_map mean {got:.5}, reference {want:.5}, relative error {rel:.4}");
-    assert!(rel < 0.02, "photon_map mean {got} vs reference {want}: {rel:.4}");
+    assert!(rel < 0.03, "photon_map mean {got} vs reference {want}: {rel:.4}");
 }
 
 #[test]
@@ -59,7 +75,10 @@ fn precomputed_irradiance_agrees_with_direct_lookups() {
     let direct_path = compare(&direct, &path).unwrap().mse;
     let pre_path = compare(&pre, &path).unwrap().mse;
     eprintln!("MSE pre vs direct {between:.3e}, direct vs path {direct_path:.3e}, pre vs path {pre_path:.3e}");
-    assert!(between < 0.2 * direct_path.min(pre_path), "{between} vs {direct_path}, {pre_path}");
+    assert!(
+        between < 0.2 * direct_path.min(pre_path),
+        "{between} vs {direct_path}, {pre_path}"
+    );
 }
 
 #[test]
@@ -105,6 +124,9 @@ fn timings() {
         let start = std::time::Instant::now();
         let mut film = Film::new(scene.camera.width, scene.camera.height);
         s.render_pass(&scene, 7, 0..4, &mut film);
-        eprintln!("`{params}`: prepare {phases:?}, render 4 spp {:.2} s", start.elapsed().as_secs_f64());
+        eprintln!(
+            "`{params}`: prepare {phases:?}, render 4 spp {:.2} s",
+            start.elapsed().as_secs_f64()
+        );
     }
 }

@@ -54,8 +54,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::geometry::{Ray, spawn_ray};
 use crate::photon::{
-    CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance,
-    trace_photons,
+    CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
 };
 use crate::resources;
 use crate::sampling::Rng;
@@ -66,7 +65,8 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-pub const SUMMARY: &str = "photon mapping with final gathering, optional precomputed irradiance (Jensen 1996; Christensen 1999)";
+pub const SUMMARY: &str =
+    "photon mapping with final gathering, optional precomputed irradiance (Jensen 1996; Christensen 1999)";
 
 /// Christensen's precomputed irradiance.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -119,7 +119,10 @@ impl PhotonMapParams {
     fn validate(&self) -> Result<()> {
         let bad = |what: &str, got: String| Err(Error::new(format!("{what}, got {got}")));
         if self.photons == 0 || self.photons > 100_000_000 {
-            return bad("photons: expected 1..=100000000 emitted paths", self.photons.to_string());
+            return bad(
+                "photons: expected 1..=100000000 emitted paths",
+                self.photons.to_string(),
+            );
         }
         if self.nearest == 0 || self.nearest > 10_000 {
             return bad("nearest: expected 1..=10000", self.nearest.to_string());
@@ -151,7 +154,10 @@ impl PhotonMapParams {
         }
         if let Some(p) = &self.precomputed_irradiance {
             if p.every == 0 || p.every > 1_000_000 {
-                return bad("precomputed_irradiance.every: expected 1..=1000000", p.every.to_string());
+                return bad(
+                    "precomputed_irradiance.every: expected 1..=1000000",
+                    p.every.to_string(),
+                );
             }
             if !(-1.0..=1.0).contains(&p.normal_dot) {
                 return bad(
@@ -235,13 +241,10 @@ pub struct PhotonMapStrategy {
 
 /// Diagonal of the bounding box of the scene's primitives.
 pub fn scene_diagonal(scene: &Scene) -> f32 {
-    let (lo, hi) = scene
-        .primitives
-        .iter()
-        .map(|p| p.aabb_min_max())
-        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), (lo, hi)| {
-            (a.min(lo), b.max(hi))
-        });
+    let (lo, hi) = scene.primitives.iter().map(|p| p.aabb_min_max()).fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(a, b), (lo, hi)| (a.min(lo), b.max(hi)),
+    );
     if lo.x <= hi.x { (hi - lo).length() } else { 0.0 }
 }
 
@@ -374,7 +377,11 @@ struct Renderer<'a> {
 /// Shading normal on the side of the world direction `w`.
 #[inline]
 fn side_normal(hit: &SurfaceHit, w: Vec3) -> Vec3 {
-    if hit.ng.dot(w) >= 0.0 { hit.frame.n } else { -hit.frame.n }
+    if hit.ng.dot(w) >= 0.0 {
+        hit.frame.n
+    } else {
+        -hit.frame.n
+    }
 }
 
 /// A stratified 2-D point set of `n` points (Latin hypercube: each coordinate hits each of
@@ -418,7 +425,9 @@ impl Renderer<'_> {
             if depth >= self.params.max_depth {
                 break;
             }
-            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else { break };
+            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else {
+                break;
+            };
             beta *= weight;
             if beta == Vec3::ZERO {
                 break;
@@ -486,7 +495,9 @@ impl Renderer<'_> {
         let mut distance = 0.0f32;
         let mut depth = 0u32;
         loop {
-            let Some(hit) = scene.intersect(&ray) else { return Vec3::ZERO };
+            let Some(hit) = scene.intersect(&ray) else {
+                return Vec3::ZERO;
+            };
             distance += hit.t;
             let bsdf = scene.bsdf(&hit);
             let wo_world = -ray.d;
