@@ -411,8 +411,7 @@ impl Renderer<'_> {
         let mut l = Vec3::ZERO;
         let mut beta = Vec3::ONE;
         let mut depth = 0u32;
-        loop {
-            let Some(hit) = scene.intersect(&ray) else { break };
+        while let Some(hit) = scene.intersect(&ray) {
             if let Some(light) = scene.light_of(hit.prim) {
                 l += beta * light.le(hit.ng, -ray.d);
             }
@@ -454,7 +453,7 @@ impl Renderer<'_> {
         let wo = hit.frame.to_local(wo_world);
         let sampler = BsdfSampling::Importance;
         let direct = estimate_direct(scene, hit, bsdf, wo, rng, Direct::Nee, (&sampler, &()), &mut ());
-        c.caustic_estimates += 1;
+        c.caustic_estimates += u64::from(!self.maps.caustic.is_empty());
         let caustic = self.map_radiance(&self.maps.caustic, &self.maps.caustic_estimate, hit, bsdf, wo_world);
         let g = if primary {
             self.params.gather_rays
