@@ -9,6 +9,7 @@
 
 pub mod path;
 pub mod photon_guided;
+pub mod photon_map;
 
 pub use path::Path;
 
@@ -81,6 +82,7 @@ pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
     match kind {
         "path" => Ok(Box::new(Path::new(parse_params::<path::PathParams>(params)?))),
         "photon_guided" => Ok(Box::new(photon_guided::PhotonGuided::new(parse_params(params)?)?)),
+        "photon_map" => Ok(Box::new(photon_map::PhotonMapStrategy::new(parse_params(params)?)?)),
         other => Err(Error::new(format!(
             "unknown strategy kind `{other}`; expected one of: {}",
             KINDS.join(", ")
@@ -89,7 +91,7 @@ pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
 }
 
 /// Every strategy kind, in the order `bench list` shows them.
-pub const KINDS: &[&str] = &["path", "photon_guided"];
+pub const KINDS: &[&str] = &["path", "photon_guided", "photon_map"];
 
 /// A strategy kind as `bench list` shows it.
 pub struct KindInfo {
@@ -112,6 +114,13 @@ pub fn describe() -> Vec<KindInfo> {
             kind: "photon_guided",
             summary: photon_guided::SUMMARY,
             defaults: g.params(),
+        });
+    }
+    if let Ok(m) = photon_map::PhotonMapStrategy::new(photon_map::PhotonMapParams::default()) {
+        kinds.push(KindInfo {
+            kind: "photon_map",
+            summary: photon_map::SUMMARY,
+            defaults: m.params(),
         });
     }
     kinds

@@ -177,7 +177,7 @@ fn uniform_pdf(bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
 /// power, a point uniformly on it, and returns the MIS-weighted contribution
 /// f_s |cos θi| Le w_light / p_light,ω.
 #[allow(clippy::too_many_arguments)]
-fn estimate_direct<S: DirectionSampler>(
+pub(crate) fn estimate_direct<S: DirectionSampler>(
     scene: &Scene,
     hit: &SurfaceHit,
     bsdf: &Bsdf,

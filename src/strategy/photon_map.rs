@@ -1,0 +1,571 @@
+//! `kind = "photon_map"`: photon mapping with final gathering [Jensen 1996; Christensen 1999],
+//! optionally reading Christensen's precomputed irradiance at the final-gather hits.
+//!
+//! Preparation traces photon paths from the lights into a global map (direct, indirect and
+//! caustic photons: [`CausticStorage::Both`]) and a caustic map (L S+ D), and builds both
+//! kd-trees (phases `photon_trace`, `kdtree_build`; with precomputed irradiance also
+//! `irradiance_precompute`).
+//!
+//! Rendering: one camera path per sample follows delta (mirror, glass) surfaces, sampling the
+//! delta BSDF, and adds emission seen directly or through specular chains. At the first
+//! non-delta hit x, L(x) = Le(x) + direct (light sampling, no MIS) + caustics (caustic-map
+//! radiance estimate with the BSDF at x) + indirect (final gather). The final gather shoots G
+//! rays, sampled from the BSDF at x and weighted f cos / pdf (for Lambertian surfaces that is
+//! cosine-distributed rays weighted ρ); the G samples are Latin-hypercube stratified over the
+//! BSDF's 2-D sample domain (every ray remains marginally distributed as the BSDF sample, so
+//! the gather stays an unbiased estimate of the map's radiance). A gather ray that escapes,
+//! or finds an emitter, contributes nothing (emission at y is direct light at x, already
+//! counted by light sampling). A gather ray that hits a delta surface follows it (up to
+//! `max_depth` bounces) to the next non-delta hit y, where the outgoing radiance is:
+//! - if the path length from x to y is below `short_gather`: a *secondary gather* at y
+//!   (`secondary_gather_rays` rays with map lookups at their hits, plus light sampling and the
+//!   caustic estimate at y): the photon-map estimate blurs over a disc of radius ≈
+//!   `max_radius`, visible as light leaks and blotches when seen from closer than a few radii
+//!   (corners);
+//! - otherwise the global map's radiance estimate with the BSDF at y, or, with precomputed
+//!   irradiance and a Lambertian y, ρ/π times the precomputed irradiance of the nearest photon
+//!   with a similar normal [Christensen 1999, §3.1].
+//!
+//! Estimates are taken on the side of the surface that the ray sees (photons are stored with
+//! the normal of the side they arrived on); transmitting BSDFs add the estimate of the other side.
+//!
+//! Parameters (all optional):
+//! - `photons` (200 000): photon paths *emitted* (Christensen 1999 emits 220 000 in the
+//!   Cornell box).
+//! - `nearest` (50): photons per global-map estimate (also for the precomputation).
+//! - `caustic_nearest` (50): photons per caustic-map estimate.
+//! - `max_radius` (5 % of the diagonal of the scene's bounding box): search radius bound of
+//!   every estimate (and of the precomputed-irradiance lookups).
+//! - `gather_rays` (64): G, final-gather rays at x.
+//! - `secondary_gather_rays` (12): rays of a secondary gather; 0 disables secondary gathers.
+//! - `short_gather` (2 × `max_radius`): distance below which a gather hit is shaded by a
+//!   secondary gather. **Decision**: twice the estimate's radius bound — the disc a lookup
+//!   averages over is then at most half the distance it is seen from. 0 disables.
+//! - `max_depth` (16): delta bounces followed by camera paths and by gather rays.
+//! - `precomputed_irradiance` (absent): `{ every = k, normal_dot = d }` precomputes the
+//!   irradiance at every k-th photon (default 4) and looks it up for Lambertian gather hits with
+//!   normal agreement n_p · n > d (default 0.9) [Christensen 1999]; absent means full density
+//!   estimates at every gather hit.
+
+use super::path::{BsdfSampling, Direct, estimate_direct};
+use super::{Phase, Strategy, render_pixels};
+use crate::bsdf::{Bsdf, TransportMode};
+use crate::error::{Error, Result};
+use crate::film::Film;
+use crate::geometry::{Ray, spawn_ray};
+use crate::photon::{
+    CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
+};
+use crate::resources;
+use crate::sampling::Rng;
+use crate::scene::{Scene, SurfaceHit};
+use glam::{Vec2, Vec3};
+use serde::Deserialize;
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+pub const SUMMARY: &str =
+    "photon mapping with final gathering, optional precomputed irradiance (Jensen 1996; Christensen 1999)";
+
+/// Christensen's precomputed irradiance.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Precomputed {
+    pub every: usize,
+    pub normal_dot: f32,
+}
+
+impl Default for Precomputed {
+    fn default() -> Self {
+        Self {
+            every: 4,
+            normal_dot: 0.9,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct PhotonMapParams {
+    pub photons: u64,
+    pub nearest: usize,
+    pub caustic_nearest: usize,
+    pub max_radius: Option<f32>,
+    pub gather_rays: u32,
+    pub secondary_gather_rays: u32,
+    pub short_gather: Option<f32>,
+    pub max_depth: u32,
+    pub precomputed_irradiance: Option<Precomputed>,
+}
+
+impl Default for PhotonMapParams {
+    fn default() -> Self {
+        Self {
+            photons: 200_000,
+            nearest: 50,
+            caustic_nearest: 50,
+            max_radius: None,
+            gather_rays: 64,
+            secondary_gather_rays: 12,
+            short_gather: None,
+            max_depth: 16,
+            precomputed_irradiance: None,
+        }
+    }
+}
+
+impl PhotonMapParams {
+    fn validate(&self) -> Result<()> {
+        let bad = |what: &str, got: String| Err(Error::new(format!("{what}, got {got}")));
+        if self.photons == 0 || self.photons > 100_000_000 {
+            return bad(
+                "photons: expected 1..=100000000 emitted paths",
+                self.photons.to_string(),
+            );
+        }
+        if self.nearest == 0 || self.nearest > 10_000 {
+            return bad("nearest: expected 1..=10000", self.nearest.to_string());
+        }
+        if self.caustic_nearest == 0 || self.caustic_nearest > 10_000 {
+            return bad("caustic_nearest: expected 1..=10000", self.caustic_nearest.to_string());
+        }
+        if let Some(r) = self.max_radius
+            && !(r.is_finite() && r > 0.0)
+        {
+            return bad("max_radius: expected a positive finite distance", r.to_string());
+        }
+        if self.gather_rays == 0 || self.gather_rays > 65_536 {
+            return bad("gather_rays: expected 1..=65536", self.gather_rays.to_string());
+        }
+        if self.secondary_gather_rays > 65_536 {
+            return bad(
+                "secondary_gather_rays: expected 0..=65536",
+                self.secondary_gather_rays.to_string(),
+            );
+        }
+        if let Some(d) = self.short_gather
+            && !(d.is_finite() && d >= 0.0)
+        {
+            return bad("short_gather: expected a distance ≥ 0", d.to_string());
+        }
+        if self.max_depth > 1024 {
+            return bad("max_depth: expected 0..=1024", self.max_depth.to_string());
+        }
+        if let Some(p) = &self.precomputed_irradiance {
+            if p.every == 0 || p.every > 1_000_000 {
+                return bad(
+                    "precomputed_irradiance.every: expected 1..=1000000",
+                    p.every.to_string(),
+                );
+            }
+            if !(-1.0..=1.0).contains(&p.normal_dot) {
+                return bad(
+                    "precomputed_irradiance.normal_dot: expected a cosine in [-1, 1]",
+                    p.normal_dot.to_string(),
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Work counted while rendering (cumulative since `prepare`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PhotonMapCounters {
+    /// Final-gather rays, primary and secondary.
+    pub gather_rays: u64,
+    /// Secondary gathers started.
+    pub secondary_gathers: u64,
+    /// Global-map density estimates (full N-nearest radiance estimates).
+    pub map_estimates: u64,
+    /// Precomputed-irradiance lookups.
+    pub irradiance_lookups: u64,
+    /// Caustic-map radiance estimates.
+    pub caustic_estimates: u64,
+}
+
+#[derive(Default)]
+struct AtomicCounters([AtomicU64; 5]);
+
+impl AtomicCounters {
+    fn add(&self, c: &PhotonMapCounters) {
+        let v = [
+            c.gather_rays,
+            c.secondary_gathers,
+            c.map_estimates,
+            c.irradiance_lookups,
+            c.caustic_estimates,
+        ];
+        for (a, x) in self.0.iter().zip(v) {
+            if x != 0 {
+                a.fetch_add(x, Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn get(&self) -> PhotonMapCounters {
+        let v = |i: usize| self.0[i].load(Ordering::Relaxed);
+        PhotonMapCounters {
+            gather_rays: v(0),
+            secondary_gathers: v(1),
+            map_estimates: v(2),
+            irradiance_lookups: v(3),
+            caustic_estimates: v(4),
+        }
+    }
+
+    fn reset(&self) {
+        for a in &self.0 {
+            a.store(0, Ordering::Relaxed);
+        }
+    }
+}
+
+/// What `prepare` builds.
+struct Maps {
+    global: PhotonMap,
+    caustic: PhotonMap,
+    irradiance: Option<IrradianceMap>,
+    estimate: EstimateParams,
+    caustic_estimate: EstimateParams,
+    short_gather: f32,
+}
+
+/// The photon-mapping strategy.
+pub struct PhotonMapStrategy {
+    pub params: PhotonMapParams,
+    maps: Option<Maps>,
+    counters: AtomicCounters,
+}
+
+/// Diagonal of the bounding box of the scene's primitives.
+pub fn scene_diagonal(scene: &Scene) -> f32 {
+    let (lo, hi) = scene.primitives.iter().map(|p| p.aabb_min_max()).fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(a, b), (lo, hi)| (a.min(lo), b.max(hi)),
+    );
+    if lo.x <= hi.x { (hi - lo).length() } else { 0.0 }
+}
+
+impl PhotonMapStrategy {
+    pub fn new(params: PhotonMapParams) -> Result<Self> {
+        params.validate()?;
+        Ok(Self {
+            params,
+            maps: None,
+            counters: AtomicCounters::default(),
+        })
+    }
+
+    /// Work counted by the renders since the last `prepare`.
+    pub fn counters(&self) -> PhotonMapCounters {
+        self.counters.get()
+    }
+
+    /// Photons in the global and caustic maps (0, 0 before `prepare`).
+    pub fn map_sizes(&self) -> (usize, usize) {
+        self.maps.as_ref().map_or((0, 0), |m| (m.global.len(), m.caustic.len()))
+    }
+}
+
+impl Strategy for PhotonMapStrategy {
+    fn kind(&self) -> &'static str {
+        "photon_map"
+    }
+
+    fn params(&self) -> Vec<(&'static str, String)> {
+        let p = &self.params;
+        let opt = |v: Option<f32>| v.map_or("auto".to_string(), |v| v.to_string());
+        let (every, normal_dot) = match &p.precomputed_irradiance {
+            Some(pre) => (pre.every.to_string(), pre.normal_dot.to_string()),
+            None => ("none".to_string(), "none".to_string()),
+        };
+        vec![
+            ("photons", p.photons.to_string()),
+            ("nearest", p.nearest.to_string()),
+            ("caustic_nearest", p.caustic_nearest.to_string()),
+            ("max_radius", opt(p.max_radius)),
+            ("gather_rays", p.gather_rays.to_string()),
+            ("secondary_gather_rays", p.secondary_gather_rays.to_string()),
+            ("short_gather", opt(p.short_gather)),
+            ("max_depth", p.max_depth.to_string()),
+            ("precomputed_every", every),
+            ("precomputed_normal_dot", normal_dot),
+        ]
+    }
+
+    fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
+        let p = &self.params;
+        // A photon path stores about 1 / (1 − albedo) photons, plus caustic copies: budget 8.
+        let bytes = resources::photon_bytes(p.photons.saturating_mul(8), Photon::BYTES as u64);
+        resources::check_memory("photons (photon maps)", bytes, resources::memory_limit()?)?;
+        self.counters.reset();
+        let mut phases = Vec::new();
+        let start = Instant::now();
+        let trace = TraceParams {
+            photons: p.photons,
+            store_direct: true,
+            caustics: CausticStorage::Both,
+            ..TraceParams::default()
+        };
+        let traced = trace_photons(scene, &trace, seed);
+        phases.push(Phase {
+            name: "photon_trace",
+            seconds: start.elapsed().as_secs_f64(),
+        });
+        let start = Instant::now();
+        let global = PhotonMap::build(traced.global);
+        let caustic = PhotonMap::build(traced.caustic);
+        phases.push(Phase {
+            name: "kdtree_build",
+            seconds: start.elapsed().as_secs_f64(),
+        });
+        let diagonal = scene_diagonal(scene);
+        let max_radius = p.max_radius.unwrap_or(0.05 * diagonal).max(f32::MIN_POSITIVE);
+        let estimate = EstimateParams {
+            nearest: p.nearest,
+            max_radius,
+            ..EstimateParams::default()
+        };
+        let caustic_estimate = EstimateParams {
+            nearest: p.caustic_nearest,
+            ..estimate.clone()
+        };
+        let irradiance = p.precomputed_irradiance.as_ref().map(|pre| {
+            let start = Instant::now();
+            let map = precompute_irradiance(&global, pre.every, &estimate);
+            phases.push(Phase {
+                name: "irradiance_precompute",
+                seconds: start.elapsed().as_secs_f64(),
+            });
+            map
+        });
+        self.maps = Some(Maps {
+            global,
+            caustic,
+            irradiance,
+            estimate,
+            caustic_estimate,
+            short_gather: p.short_gather.unwrap_or(2.0 * max_radius),
+        });
+        Ok(phases)
+    }
+
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+        let Some(maps) = &self.maps else { return };
+        let r = Renderer {
+            scene,
+            params: &self.params,
+            maps,
+        };
+        render_pixels(scene, seed, samples, film, |ray, rng| {
+            let mut c = PhotonMapCounters::default();
+            let l = r.radiance(*ray, rng, &mut c);
+            self.counters.add(&c);
+            l
+        });
+    }
+}
+
+struct Renderer<'a> {
+    scene: &'a Scene,
+    params: &'a PhotonMapParams,
+    maps: &'a Maps,
+}
+
+/// Shading normal on the side of the world direction `w`.
+#[inline]
+fn side_normal(hit: &SurfaceHit, w: Vec3) -> Vec3 {
+    if hit.ng.dot(w) >= 0.0 {
+        hit.frame.n
+    } else {
+        -hit.frame.n
+    }
+}
+
+/// A stratified 2-D point set of `n` points (Latin hypercube: each coordinate hits each of
+/// its n strata once, each point is uniform on [0, 1)²).
+fn latin_hypercube(n: usize, rng: &mut Rng) -> Vec<Vec2> {
+    let mut perm: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        let j = ((rng.uniform() * (i + 1) as f32) as usize).min(i);
+        perm.swap(i, j);
+    }
+    let inv = 1.0 / n as f32;
+    (0..n)
+        .map(|i| {
+            let u = rng.uniform2();
+            Vec2::new(
+                ((i as f32 + u.x) * inv).min(1.0 - f32::EPSILON),
+                ((perm[i] as f32 + u.y) * inv).min(1.0 - f32::EPSILON),
+            )
+        })
+        .collect()
+}
+
+impl Renderer<'_> {
+    /// Radiance arriving along a camera ray.
+    fn radiance(&self, mut ray: Ray, rng: &mut Rng, c: &mut PhotonMapCounters) -> Vec3 {
+        let scene = self.scene;
+        let mut l = Vec3::ZERO;
+        let mut beta = Vec3::ONE;
+        let mut depth = 0u32;
+        while let Some(hit) = scene.intersect(&ray) {
+            if let Some(light) = scene.light_of(hit.prim) {
+                l += beta * light.le(hit.ng, -ray.d);
+            }
+            let bsdf = scene.bsdf(&hit);
+            let wo = hit.frame.to_local(-ray.d);
+            if !bsdf.is_delta() {
+                l += beta * self.shade(&hit, bsdf, -ray.d, true, rng, c);
+                break;
+            }
+            if depth >= self.params.max_depth {
+                break;
+            }
+            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else {
+                break;
+            };
+            beta *= weight;
+            if beta == Vec3::ZERO {
+                break;
+            }
+            ray = next;
+            depth += 1;
+        }
+        l
+    }
+
+    /// Reflected radiance at a non-delta hit towards `wo_world`, without emission: light
+    /// sampling + caustic map + a final gather (`primary`: G rays that may start secondary
+    /// gathers; otherwise the secondary gather's rays, read from the map).
+    fn shade(
+        &self,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        wo_world: Vec3,
+        primary: bool,
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+    ) -> Vec3 {
+        let scene = self.scene;
+        let wo = hit.frame.to_local(wo_world);
+        let sampler = BsdfSampling::Importance;
+        let direct = estimate_direct(scene, hit, bsdf, wo, rng, Direct::Nee, (&sampler, &()), &mut ());
+        c.caustic_estimates += u64::from(!self.maps.caustic.is_empty());
+        let caustic = self.map_radiance(&self.maps.caustic, &self.maps.caustic_estimate, hit, bsdf, wo_world);
+        let g = if primary {
+            self.params.gather_rays
+        } else {
+            self.params.secondary_gather_rays
+        } as usize;
+        let mut indirect = Vec3::ZERO;
+        if g > 0 {
+            for u in latin_hypercube(g, rng) {
+                let u_lobe = rng.uniform();
+                c.gather_rays += 1;
+                let Some(s) = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance) else {
+                    continue;
+                };
+                if s.pdf_w <= 0.0 {
+                    continue;
+                }
+                let wi = hit.frame.to_world(s.wi);
+                if wi.dot(hit.ng) * s.wi.z <= 0.0 {
+                    continue;
+                }
+                let weight = s.f * (s.wi.z.abs() / s.pdf_w);
+                if weight == Vec3::ZERO {
+                    continue;
+                }
+                indirect += weight * self.gather(spawn_ray(hit.p, hit.ng, wi), primary, rng, c);
+            }
+            indirect /= g as f32;
+        }
+        direct + caustic + indirect
+    }
+
+    /// Radiance a gather ray brings back: follows delta surfaces to the next non-delta hit y
+    /// and estimates its outgoing radiance there (emission excluded).
+    fn gather(&self, mut ray: Ray, primary: bool, rng: &mut Rng, c: &mut PhotonMapCounters) -> Vec3 {
+        let scene = self.scene;
+        let mut beta = Vec3::ONE;
+        let mut distance = 0.0f32;
+        let mut depth = 0u32;
+        loop {
+            let Some(hit) = scene.intersect(&ray) else {
+                return Vec3::ZERO;
+            };
+            distance += hit.t;
+            let bsdf = scene.bsdf(&hit);
+            let wo_world = -ray.d;
+            if !bsdf.is_delta() {
+                let maps = self.maps;
+                if primary && distance < maps.short_gather && self.params.secondary_gather_rays > 0 {
+                    c.secondary_gathers += 1;
+                    return beta * self.shade(&hit, bsdf, wo_world, false, rng, c);
+                }
+                if let (Some(irr), Some(pre), Bsdf::Lambertian(lam)) =
+                    (&maps.irradiance, &self.params.precomputed_irradiance, bsdf)
+                {
+                    c.irradiance_lookups += 1;
+                    let n = side_normal(&hit, wo_world);
+                    return beta * irr.radiance_at(hit.p, n, lam.reflectance, pre.normal_dot);
+                }
+                c.map_estimates += 1;
+                return beta * self.map_radiance(&maps.global, &maps.estimate, &hit, bsdf, wo_world);
+            }
+            if depth >= self.params.max_depth {
+                return Vec3::ZERO;
+            }
+            let wo = hit.frame.to_local(wo_world);
+            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else {
+                return Vec3::ZERO;
+            };
+            beta *= weight;
+            if beta == Vec3::ZERO {
+                return Vec3::ZERO;
+            }
+            ray = next;
+            depth += 1;
+        }
+    }
+
+    /// Radiance estimate of `map` at `hit` towards `wo_world` with the BSDF: on the side seen
+    /// from `wo_world`, plus the other side for transmitting BSDFs.
+    fn map_radiance(
+        &self,
+        map: &PhotonMap,
+        params: &EstimateParams,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        wo_world: Vec3,
+    ) -> Vec3 {
+        if map.is_empty() {
+            return Vec3::ZERO;
+        }
+        let wo = hit.frame.to_local(wo_world);
+        let f_r = |wi: Vec3| bsdf.eval(wo, hit.frame.to_local(wi), TransportMode::Radiance);
+        let n = side_normal(hit, wo_world);
+        let mut l = map.radiance(hit.p, n, params, f_r).value;
+        if bsdf.is_transmissive() {
+            l += map.radiance(hit.p, -n, params, f_r).value;
+        }
+        l
+    }
+}
+
+/// Samples a delta BSDF: the continued ray and the throughput weight f cos / p.
+fn delta_bounce(hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3, rng: &mut Rng) -> Option<(Ray, Vec3)> {
+    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+    let s = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)?;
+    if s.pdf_w <= 0.0 {
+        return None;
+    }
+    let wi = hit.frame.to_world(s.wi);
+    if wi.dot(hit.ng) * s.wi.z <= 0.0 {
+        return None;
+    }
+    Some((spawn_ray(hit.p, hit.ng, wi), s.f * (s.wi.z.abs() / s.pdf_w)))
+}
