@@ -2,7 +2,8 @@
 //! samples into passes; a different seed gives a different image.
 
 use photon_bench::film::{Film, Image};
-use photon_bench::scene::{Scene, load_scene};
+use photon_bench::scene::Scene;
+use photon_bench::scene::load::load_scene_bytes;
 use photon_bench::strategy::{self, Strategy};
 use std::ops::Range;
 
@@ -23,7 +24,14 @@ fn bits(img: &Image) -> Vec<u32> {
 
 #[test]
 fn every_strategy_is_bit_identical_across_thread_counts_and_pass_splits() {
-    let scene = load_scene(std::path::Path::new("scenes/cornell-spheres.toml")).unwrap();
+    // cornell-spheres (mirror, glass, caustics) at 32 × 32, so that the slowest strategies
+    // (final gathering) stay cheap; every code path is still exercised.
+    let file = std::path::Path::new("scenes/cornell-spheres.toml");
+    let text = std::fs::read_to_string(file)
+        .unwrap()
+        .replace("resolution = [128, 128]", "resolution = [32, 32]");
+    let (scene, _) = load_scene_bytes(file, text.as_bytes()).unwrap();
+    assert_eq!(scene.camera.width, 32, "the resolution replacement must apply");
     for &kind in strategy::KINDS {
         let mut s = strategy::build(kind, toml::Table::new()).unwrap();
         s.prepare(&scene, 7).unwrap();
