@@ -111,33 +111,3 @@ fn kind_is_registered() {
     assert!(strategy::KINDS.contains(&"photon_map"));
     assert!(strategy::describe().iter().any(|k| k.kind == "photon_map"));
 }
-
-/// Timings for the report: `cargo test --release --test photon_map timings -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn timings() {
-    use photon_bench::strategy::photon_map::{PhotonMapParams, PhotonMapStrategy, Precomputed};
-    let scene = photon_bench::scene::load_scene(Path::new("scenes/cornell-spheres.toml")).unwrap();
-    let mut images = Vec::new();
-    for pre in [None, Some(Precomputed::default())] {
-        let params = PhotonMapParams {
-            precomputed_irradiance: pre.clone(),
-            ..PhotonMapParams::default()
-        };
-        let mut s = PhotonMapStrategy::new(params).unwrap();
-        let phases = s.prepare(&scene, 7).unwrap();
-        let start = std::time::Instant::now();
-        let mut film = Film::new(scene.camera.width, scene.camera.height);
-        s.render_pass(&scene, 7, 0..4, &mut film);
-        let seconds = start.elapsed().as_secs_f64();
-        eprintln!(
-            "{pre:?}: prepare {phases:?}, render 4 spp {seconds:.2} s, {:?}",
-            s.counters()
-        );
-        images.push(film.image());
-    }
-    eprintln!(
-        "MSE between the variants: {:.3e}",
-        compare(&images[1], &images[0]).unwrap().mse
-    );
-}
