@@ -6,7 +6,7 @@ use photon_bench::film::{Film, Image, read_exr};
 use photon_bench::metrics::compare;
 use photon_bench::scene::load::load_scene_bytes;
 use photon_bench::scene::{Scene, luminance};
-use photon_bench::strategy::{self, Strategy};
+use photon_bench::strategy;
 use std::path::Path;
 
 /// `cornell-empty` at 32 × 24.
