@@ -287,6 +287,10 @@ fn run_command(command: Command) -> Result<Status> {
                 "  guided pdfs/s      {:>12.0}  (k-NN + 4x16 grid, Jensen 1995)",
                 r.guided_pdfs_per_s
             );
+            println!(
+                "  gather rays/s      {:>12.0}  (photon_map final gather, precomputed irradiance)",
+                r.gather_rays_per_s
+            );
             if let Some(path) = csv {
                 photon_bench::perf::append_csv(&r, &path)?;
             }

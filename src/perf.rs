@@ -40,6 +40,9 @@ pub struct PerfReport {
     pub knn_queries_per_s: f64,
     /// Jensen 1995 guiding grids (4 × 16) built per second from those queries' photons.
     pub guided_pdfs_per_s: f64,
+    /// Final-gather rays per second of `photon_map` (defaults, precomputed irradiance at every
+    /// 4th photon, 1 spp over the image), lookups and shading included.
+    pub gather_rays_per_s: f64,
     pub cpu: String,
     pub git_revision: String,
 }
@@ -120,7 +123,9 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
     std::hint::black_box(hits);
 
     let photons = measure_photons(scene, seed);
+    let gather_rays_per_s = measure_gather(scene, seed);
     PerfReport {
+        gather_rays_per_s,
         photons_per_s: photons.0,
         photons_stored: photons.1,
         knn_queries_per_s: photons.2,
@@ -192,6 +197,27 @@ fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
     std::hint::black_box(grids);
     let q = queries.len().max(1) as f64;
     (photons_per_s, stored, q / knn_s, q / grid_s)
+}
+
+/// Final-gather rays per second of `photon_map` with precomputed irradiance (every 4th
+/// photon), rendering 1 spp of the whole image after preparation.
+fn measure_gather(scene: &Scene, seed: u64) -> f64 {
+    use crate::strategy::Strategy;
+    use crate::strategy::photon_map::{PhotonMapParams, PhotonMapStrategy, Precomputed};
+    let params = PhotonMapParams {
+        precomputed_irradiance: Some(Precomputed::default()),
+        ..PhotonMapParams::default()
+    };
+    let Ok(mut strategy) = PhotonMapStrategy::new(params) else {
+        return f64::NAN;
+    };
+    if strategy.prepare(scene, seed).is_err() {
+        return f64::NAN;
+    }
+    let mut film = crate::film::Film::new(scene.camera.width, scene.camera.height);
+    let start = Instant::now();
+    strategy.render_pass(scene, seed, 0..1, &mut film);
+    strategy.counters().gather_rays as f64 / start.elapsed().as_secs_f64()
 }
 
 /// Appends `report` to a CSV file (header written when the file is new).
