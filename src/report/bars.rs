@@ -1,7 +1,7 @@
 //! Bar charts (plotters), written as SVG and PNG like [`super::plot`]: a bar per strategy with
 //! confidence-interval error bars, and stacked bars of the time spent per phase.
 
-use super::plot::{FONT, PALETTE, PLOT_SIZE_PX, write_svg_png};
+use super::plot::{FONT, PALETTE, PLOT_SIZE_PX, draw_legend, write_svg_png};
 use crate::error::{Error, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -108,13 +108,7 @@ fn draw<DB: DrawingBackend>(
         }
     }
     if stacked {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 16))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        draw_legend(&mut chart)?;
     }
     root.present()
 }

@@ -205,14 +205,21 @@ fn draw<DB: DrawingBackend>(
             });
         chart.draw_series(curve.points.iter().map(|&p| Circle::new(p, 4, colour.filled())))?;
     }
+    draw_legend(&mut chart)?;
+    root.present()
+}
+
+/// The legend every chart of the report uses: upper right, on a translucent white box.
+pub(super) fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperRight)
         .label_font((FONT, 16))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .draw()?;
-    root.present()
+        .draw()
 }
 
 /// `path` with `.ext` appended (not replacing an extension: "mse.v2" gives "mse.v2.svg").
