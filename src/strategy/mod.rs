@@ -45,6 +45,12 @@ pub trait Strategy: Send + Sync {
 
     /// Adds samples `samples` of every pixel to `film`.
     fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film);
+
+    /// Named quantities the strategy counted or estimated since `prepare` (gather rays, photons
+    /// stored, proposals accepted, B_eye …), in a fixed order; recorded with every result row.
+    fn counters(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
 }
 
 /// Stream purposes, so that different uses of one seed never share random numbers.
