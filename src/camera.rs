@@ -76,6 +76,18 @@ impl Camera {
             .then_some(raster)
     }
 
+    /// Jacobian du/dω of raster area per solid angle for unit direction `d` from the eye:
+    /// s² / cos³θ, with s raster units per unit length on the plane at distance 1 and θ the
+    /// angle between `d` and the view direction. Zero behind the camera.
+    pub fn raster_per_solid_angle(&self, d: Vec3) -> f32 {
+        let cos = d.dot(self.forward);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let s = 0.5 * self.height as f32 / self.half_h;
+        s * s / (cos * cos * cos)
+    }
+
     /// Area of the image plane at distance 1 from the eye.
     pub fn image_plane_area(&self) -> f32 {
         4.0 * self.half_w * self.half_h

@@ -22,6 +22,8 @@ pub mod film;
 pub mod geometry;
 pub mod light;
 pub mod metrics;
+pub mod metropolis;
+pub mod path_space;
 pub mod perf;
 pub mod photon;
 pub mod report;

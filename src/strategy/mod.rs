@@ -7,6 +7,7 @@
 //! (seed, pixel, sample index) and the film adds each pixel's samples in order, rendering
 //! 0..64 at once or as 0..16, 16..64 gives the bit-identical image, on any number of threads.
 
+pub mod mlt;
 pub mod path;
 pub mod photon_guided;
 pub mod photon_map;
@@ -58,6 +59,12 @@ pub mod stream {
     pub const CAMERA_PATH: u64 = 1;
     /// Photon path i of photon tracing: `[PHOTON_PATH, i, 0]` ([`crate::photon::trace_photons`]).
     pub const PHOTON_PATH: u64 = 2;
+    /// Path-tracing sample i of the B_eye estimate: `[B_EYE, i, 0]` ([`crate::metropolis`]).
+    pub const B_EYE: u64 = 3;
+    /// First state of Metropolis chain c: `[CHAIN_START, c, 0]`.
+    pub const CHAIN_START: u64 = 4;
+    /// Mutations of chain c in block b: `[CHAIN, c, b]`.
+    pub const CHAIN: u64 = 5;
 }
 
 /// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel
@@ -89,6 +96,7 @@ pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
         "path" => Ok(Box::new(Path::new(parse_params::<path::PathParams>(params)?))),
         "photon_guided" => Ok(Box::new(photon_guided::PhotonGuided::new(parse_params(params)?)?)),
         "photon_map" => Ok(Box::new(photon_map::PhotonMapStrategy::new(parse_params(params)?)?)),
+        "mlt" => Ok(Box::new(mlt::Mlt::new(parse_params(params)?)?)),
         other => Err(Error::new(format!(
             "unknown strategy kind `{other}`; expected one of: {}",
             KINDS.join(", ")
@@ -97,7 +105,7 @@ pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
 }
 
 /// Every strategy kind, in the order `bench list` shows them.
-pub const KINDS: &[&str] = &["path", "photon_guided", "photon_map"];
+pub const KINDS: &[&str] = &["path", "photon_guided", "photon_map", "mlt"];
 
 /// A strategy kind as `bench list` shows it.
 pub struct KindInfo {
@@ -126,6 +134,13 @@ pub fn describe() -> Vec<KindInfo> {
         kinds.push(KindInfo {
             kind: "photon_map",
             summary: photon_map::SUMMARY,
+            defaults: m.params(),
+        });
+    }
+    if let Ok(m) = mlt::Mlt::new(crate::metropolis::MetropolisParams::default()) {
+        kinds.push(KindInfo {
+            kind: "mlt",
+            summary: mlt::SUMMARY,
             defaults: m.params(),
         });
     }

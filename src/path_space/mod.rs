@@ -1,0 +1,332 @@
+//! Path space [Veach 1997, ch. 8]: light-to-eye paths X = (x₀ on a light, x₁, …, x_k at the
+//! eye) as lists of [`Vertex`], their contribution f(X) in the area-product measure, and the
+//! area densities with which sub-path sampling produces each vertex (what the Metropolis
+//! proposals of [`crate::metropolis`] need for their transition densities).
+//!
+//! **Contribution** [Fan et al. 2005, eq. (3); Veach 1997, eq. (8.7)]:
+//! f(X) = Le(x₀→x₁) G(x₀,x₁) Π_{i=1}^{k−1} f_s(x_{i−1}→x_i→x_{i+1}) G(x_i,x_{i+1}),
+//! with G(a,b) = |cos θ_a| |cos θ_b| / |a − b|² (visibility is checked by whoever builds a new
+//! edge: traced edges are visible by construction, connections cast a shadow ray). The last
+//! factor, for the edge to the pinhole, is the camera's importance in raster units:
+//! C(x_{k−1}) = du/dA(x_{k−1}) = s² |cos θ_x| / (r² cos³ θ_cam) ([`camera_factor`]), zero outside
+//! the image. With it, ∫ f dμ is the sum over pixels of the pixel values (pixel area 1), so the
+//! normalisation B = ∫ f_Y dμ is the total luminance reaching the image, the paper's B_eye.
+//!
+//! **Specular vertices** (only delta lobes: mirrors, smooth glass) carry the coefficient of
+//! their delta distribution in f and the probability of choosing their lobe in the densities
+//! ("dropped deltas"). Each density below then has the same delta factors as f, so every
+//! ratio f / p and f(Y) T(X|Y) / (f(X) T(Y|X)) is that of the true measures [Veach 1997,
+//! §8.3.2 and §10.3.5]; a connection (deterministic edge) must join two non-delta vertices.
+//!
+//! Directions at a surface vertex must lie on the sides that the shading frame and the
+//! geometric normal agree on (as in the path tracer); otherwise f = 0.
+
+pub mod walk;
+
+use crate::bsdf::{Bsdf, TransportMode};
+use crate::geometry::{Frame, spawn_shadow_ray};
+use crate::scene::{Scene, SurfaceHit};
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+/// What a vertex is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VertexKind {
+    /// x₀, a point on light `index` of `Scene::lights`.
+    Light(u32),
+    /// A scattering point.
+    Surface,
+    /// x_k, the pinhole.
+    Eye,
+}
+
+/// One vertex of a path.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    pub p: Vec3,
+    /// Unit geometric normal (the eye: the view direction).
+    pub ng: Vec3,
+    /// Shading frame (surface vertices).
+    pub frame: Frame,
+    /// Primitive the vertex lies on (`u32::MAX` for the eye).
+    pub prim: u32,
+    pub material: u32,
+    pub kind: VertexKind,
+    /// Only delta lobes (mirror, smooth dielectric): a "specular" vertex, S in Heckbert's grammar.
+    pub delta: bool,
+}
+
+impl Vertex {
+    /// A scattering vertex at a ray hit.
+    pub fn surface(scene: &Scene, hit: &SurfaceHit) -> Self {
+        Self {
+            p: hit.p,
+            ng: hit.ng,
+            frame: hit.frame,
+            prim: hit.prim,
+            material: hit.material,
+            kind: VertexKind::Surface,
+            delta: scene.bsdf(hit).is_delta(),
+        }
+    }
+
+    /// A light vertex x₀ at point `p` (normal `n`) of light `light`.
+    pub fn light(scene: &Scene, light: usize, p: Vec3, n: Vec3) -> Self {
+        let prim = scene.lights[light].prim;
+        Self {
+            p,
+            ng: n,
+            frame: Frame::from_normal(n),
+            prim,
+            material: scene.attrs[prim as usize].material,
+            kind: VertexKind::Light(light as u32),
+            delta: false,
+        }
+    }
+
+    /// The pinhole x_k.
+    pub fn eye(scene: &Scene) -> Self {
+        let forward = scene.camera.forward();
+        Self {
+            p: scene.camera.eye,
+            ng: forward,
+            frame: Frame::from_normal(forward),
+            prim: u32::MAX,
+            material: u32::MAX,
+            kind: VertexKind::Eye,
+            delta: false,
+        }
+    }
+
+    /// The same point as x₀ of a path, when it lies on a light (an eye path that hit an emitter).
+    pub fn as_light(&self, scene: &Scene) -> Option<Self> {
+        if self.prim == u32::MAX {
+            return None;
+        }
+        let light = scene.light_index_of(self.prim)?;
+        Some(Self::light(scene, light, self.p, self.ng))
+    }
+
+    #[inline]
+    pub fn is_surface(&self) -> bool {
+        self.kind == VertexKind::Surface
+    }
+
+    /// Can a deterministic edge (a connection) end here? Not at specular vertices.
+    #[inline]
+    pub fn connectible(&self) -> bool {
+        !self.delta
+    }
+
+    #[inline]
+    pub fn bsdf<'a>(&self, scene: &'a Scene) -> &'a Bsdf {
+        &scene.materials[self.material as usize].bsdf
+    }
+}
+
+/// Unit direction from `a` to `b`, and the squared distance.
+#[inline]
+pub fn direction(a: &Vertex, b: &Vertex) -> (Vec3, f32) {
+    let d = b.p - a.p;
+    let d2 = d.length_squared();
+    if d2 > 0.0 {
+        (d / d2.sqrt(), d2)
+    } else {
+        (Vec3::ZERO, 0.0)
+    }
+}
+
+/// |cos θ_b| / |a − b|²: turns a solid-angle density at `a` into an area density at `b`.
+#[inline]
+pub fn solid_angle_to_area(a: &Vertex, b: &Vertex) -> f32 {
+    let (d, d2) = direction(a, b);
+    if d2 == 0.0 { 0.0 } else { b.ng.dot(d).abs() / d2 }
+}
+
+/// The camera factor C(x) = du/dA(x) of a vertex seen from the pinhole, with its raster
+/// position; `None` outside the image or behind the camera.
+pub fn camera_factor(scene: &Scene, x: &Vertex) -> Option<(Vec2, f32)> {
+    let cam = &scene.camera;
+    let d = x.p - cam.eye;
+    let r2 = d.length_squared();
+    if r2 == 0.0 {
+        return None;
+    }
+    let d = d / r2.sqrt();
+    let raster = cam.raster_position(d)?;
+    let c = cam.raster_per_solid_angle(d) * x.ng.dot(d).abs() / r2;
+    (c > 0.0 && c.is_finite()).then_some((raster, c))
+}
+
+/// A direction leaving surface vertex `v` in world space, as a local direction, provided the
+/// shading frame and the geometric normal put it on the same side.
+#[inline]
+fn local_dir(v: &Vertex, w: Vec3) -> Option<Vec3> {
+    let l = v.frame.to_local(w);
+    (l.z * w.dot(v.ng) > 0.0).then_some(l)
+}
+
+/// The delta lobe of `bsdf` that turns local `wo` into local `wi`, if any: its coefficient
+/// (f_s without the delta, [`crate::bsdf::BsdfSample::f`]) in `mode` and the probability
+/// with which sampling from `wo` chooses it.
+pub fn delta_lobe(bsdf: &Bsdf, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<(Vec3, f32)> {
+    // Mirrors have one lobe; a dielectric reflects for u_lobe < F and refracts above.
+    for u_lobe in [0.0, 1.0 - f32::EPSILON] {
+        if let Some(s) = bsdf.sample(wo, Vec2::ZERO, u_lobe, mode)
+            && s.delta
+            && s.pdf_w > 0.0
+            && s.wi.dot(wi) > 1.0 - 1e-4
+        {
+            return Some((s.f, s.pdf_w));
+        }
+    }
+    None
+}
+
+/// f_s(x_{i−1} → x_i → x_{i+1}) at surface vertex i (radiance flows from i−1 to i+1).
+pub fn scattering(scene: &Scene, path: &[Vertex], i: usize) -> Vec3 {
+    let v = &path[i];
+    let (Some(wo), Some(wi)) = (
+        local_dir(v, direction(v, &path[i + 1]).0),
+        local_dir(v, direction(v, &path[i - 1]).0),
+    ) else {
+        return Vec3::ZERO;
+    };
+    let bsdf = v.bsdf(scene);
+    if v.delta {
+        delta_lobe(bsdf, wo, wi, TransportMode::Radiance).map_or(Vec3::ZERO, |(f, _)| f)
+    } else {
+        bsdf.eval(wo, wi, TransportMode::Radiance)
+    }
+}
+
+/// Geometry term G(x_i, x_{i+1}) without visibility.
+#[inline]
+pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
+    let (d, d2) = direction(a, b);
+    if d2 == 0.0 {
+        0.0
+    } else {
+        (a.ng.dot(d) * b.ng.dot(d)).abs() / d2
+    }
+}
+
+/// Emitted radiance Le(x₀ → x₁).
+pub fn emitted(scene: &Scene, path: &[Vertex]) -> Vec3 {
+    let VertexKind::Light(l) = path[0].kind else {
+        return Vec3::ZERO;
+    };
+    scene.lights[l as usize].le(path[0].ng, direction(&path[0], &path[1]).0)
+}
+
+/// Le G Π f_s G up to vertex `upto` (excluded: its f_s is not applied): the flux density that
+/// the light sub-path x₀ … x_upto brings to x_upto, f_map(X_map) of [Fan et al. 2005, eq. (2)].
+pub fn light_throughput(scene: &Scene, path: &[Vertex], upto: usize) -> Vec3 {
+    debug_assert!(upto >= 1 && upto < path.len());
+    let mut t = emitted(scene, path) * geometry(&path[0], &path[1]);
+    for i in 1..upto {
+        if t == Vec3::ZERO {
+            return t;
+        }
+        t *= scattering(scene, path, i) * geometry(&path[i], &path[i + 1]);
+    }
+    t
+}
+
+/// A path's contribution f(X) (per channel) and the raster position of its last edge; `None`
+/// for a malformed path or one outside the image. Visibility is not checked.
+pub fn contribution(scene: &Scene, path: &[Vertex]) -> Option<(Vec3, Vec2)> {
+    let k = path.len().checked_sub(1)?;
+    if k == 0 || !matches!(path[0].kind, VertexKind::Light(_)) || path[k].kind != VertexKind::Eye {
+        return None;
+    }
+    let (raster, c) = camera_factor(scene, &path[k - 1])?;
+    let f = if k == 1 {
+        emitted(scene, path) * c
+    } else {
+        light_throughput(scene, path, k - 1) * scattering(scene, path, k - 1) * c
+    };
+    Some((f, raster))
+}
+
+/// Area density with which the *light* side produces vertex i from i−1 (and i−2): x₀ by
+/// choosing a light ∝ power and a point uniformly on it, x₁ by cosine-distributed emission,
+/// later vertices by sampling the BSDF at x_{i−1} (its lobe probability if specular).
+pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
+    match i {
+        0 => {
+            let VertexKind::Light(l) = path[0].kind else { return 0.0 };
+            let light = &scene.lights[l as usize];
+            scene.light_selection.pmf(l as usize) / light.area
+        }
+        1 => {
+            let VertexKind::Light(l) = path[0].kind else { return 0.0 };
+            let (d, _) = direction(&path[0], &path[1]);
+            let cos = path[0].ng.dot(d);
+            let light = &scene.lights[l as usize];
+            let pdf_w = if light.emission.two_sided {
+                0.5 * cos.abs() * FRAC_1_PI
+            } else {
+                cos.max(0.0) * FRAC_1_PI
+            };
+            pdf_w * solid_angle_to_area(&path[0], &path[1])
+        }
+        _ => {
+            let v = &path[i - 1];
+            if !v.is_surface() {
+                return 0.0;
+            }
+            let (Some(wo), Some(wi)) = (
+                local_dir(v, direction(v, &path[i - 2]).0),
+                local_dir(v, direction(v, &path[i]).0),
+            ) else {
+                return 0.0;
+            };
+            direction_pdf(scene, v, wo, wi, TransportMode::Importance) * solid_angle_to_area(v, &path[i])
+        }
+    }
+}
+
+/// Area density with which the *eye* side produces vertex i from i+1 (and i+2): x_{k−1} by a
+/// raster position uniform over the whole image, earlier vertices by sampling the BSDF at
+/// x_{i+1}.
+pub fn pdf_eye_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
+    let k = path.len() - 1;
+    if i + 1 == k {
+        let pixels = scene.camera.pixel_count() as f32;
+        return camera_factor(scene, &path[i]).map_or(0.0, |(_, c)| c / pixels);
+    }
+    let v = &path[i + 1];
+    if !v.is_surface() {
+        return 0.0;
+    }
+    let (Some(wo), Some(wi)) = (
+        local_dir(v, direction(v, &path[i + 2]).0),
+        local_dir(v, direction(v, &path[i]).0),
+    ) else {
+        return 0.0;
+    };
+    direction_pdf(scene, v, wo, wi, TransportMode::Radiance) * solid_angle_to_area(v, &path[i])
+}
+
+/// Solid-angle density (or lobe probability at a specular vertex) of sampling `wi` from `wo`.
+fn direction_pdf(scene: &Scene, v: &Vertex, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+    let bsdf = v.bsdf(scene);
+    if v.delta {
+        delta_lobe(bsdf, wo, wi, mode).map_or(0.0, |(_, p)| p)
+    } else {
+        bsdf.pdf(wo, wi)
+    }
+}
+
+/// Is the straight segment between two vertices free of occluders?
+pub fn visible(scene: &Scene, a: &Vertex, b: &Vertex) -> bool {
+    let (ray, dist) = spawn_shadow_ray(a.p, a.ng, b.p, b.ng);
+    dist > 0.0 && ray.d.is_finite() && scene.unoccluded(&ray)
+}
+
+/// Index of the first non-specular vertex seen from the eye (x_d of E S* D), if the eye
+/// sub-path reaches one before the light.
+pub fn first_diffuse_from_eye(path: &[Vertex]) -> Option<usize> {
+    (1..path.len() - 1).rev().find(|&i| !path[i].delta)
+}

@@ -1,0 +1,190 @@
+//! Sub-path sampling as in bidirectional path tracing [Veach 1997, §10.2]: light sub-paths
+//! grow from a point on a light, eye sub-paths from the pinhole, each vertex drawn with exactly
+//! the density that [`pdf_light_side`] / [`pdf_eye_side`] report, and path-tracing samples of
+//! whole paths for the normalisation B and the chains' first states.
+
+use super::{Vertex, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
+use crate::bsdf::TransportMode;
+use crate::geometry::{Ray, spawn_ray};
+use crate::sampling::{Rng, sample_cosine_hemisphere};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+
+/// The first surface hit along `ray`, as a vertex.
+#[inline]
+pub fn trace(scene: &Scene, ray: &Ray) -> Option<Vertex> {
+    scene.intersect(ray).map(|hit| Vertex::surface(scene, &hit))
+}
+
+/// The first surface hit leaving vertex `v` in unit direction `d`.
+#[inline]
+pub fn trace_from(scene: &Scene, v: &Vertex, d: Vec3) -> Option<Vertex> {
+    trace(scene, &spawn_ray(v.p, v.ng, d))
+}
+
+/// Samples a direction at surface vertex `v`, reached from `from`, with the BSDF in `mode`
+/// (world space). `None` when the BSDF absorbs or the shading and geometric normals disagree.
+pub fn sample_direction(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rng: &mut Rng) -> Option<Vec3> {
+    let wo = v.frame.to_local(direction(v, from).0);
+    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+    let s = v.bsdf(scene).sample(wo, u, u_lobe, mode)?;
+    if s.pdf_w <= 0.0 || s.f == Vec3::ZERO {
+        return None;
+    }
+    let wi = v.frame.to_world(s.wi);
+    (wi.dot(v.ng) * s.wi.z > 0.0).then_some(wi)
+}
+
+/// A light vertex x₀: a light chosen ∝ power, a point uniformly on it.
+pub fn sample_light_vertex(scene: &Scene, rng: &mut Rng) -> Vertex {
+    let (l, _, _) = scene.light_selection.sample(rng.uniform());
+    let light = &scene.lights[l];
+    let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
+    Vertex::light(scene, l, lp.p, lp.n)
+}
+
+/// Appends `n` light-side vertices to `path` (x₀ first; an empty `path` starts at a light).
+/// False when a ray escapes or a BSDF absorbs.
+pub fn extend_light_side(scene: &Scene, path: &mut Vec<Vertex>, n: usize, rng: &mut Rng) -> bool {
+    for _ in 0..n {
+        let next = match path.len() {
+            0 => Some(sample_light_vertex(scene, rng)),
+            1 => {
+                let x0 = path[0];
+                let super::VertexKind::Light(l) = x0.kind else {
+                    return false;
+                };
+                let mut local = sample_cosine_hemisphere(rng.uniform2());
+                if scene.lights[l as usize].emission.two_sided && rng.uniform() < 0.5 {
+                    local.z = -local.z;
+                }
+                trace_from(scene, &x0, x0.frame.to_world(local))
+            }
+            len => {
+                let (v, from) = (path[len - 1], path[len - 2]);
+                sample_direction(scene, &v, &from, TransportMode::Importance, rng)
+                    .and_then(|d| trace_from(scene, &v, d))
+            }
+        };
+        match next {
+            Some(v) => path.push(v),
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Appends `n` eye-side vertices to `rev`, an eye sub-path stored from the eye (`rev[0]` is
+/// the pinhole): the first by a raster position uniform over the image, then by BSDF sampling.
+pub fn extend_eye_side(scene: &Scene, rev: &mut Vec<Vertex>, n: usize, rng: &mut Rng) -> bool {
+    for _ in 0..n {
+        match step_eye(scene, rev, rng) {
+            Some(v) => rev.push(v),
+            None => return false,
+        }
+    }
+    true
+}
+
+/// The next eye-side vertex after `rev`'s last.
+fn step_eye(scene: &Scene, rev: &[Vertex], rng: &mut Rng) -> Option<Vertex> {
+    match rev.len() {
+        1 => {
+            let cam = &scene.camera;
+            let raster = rng.uniform2() * Vec2::new(cam.width as f32, cam.height as f32);
+            trace(scene, &cam.generate_ray(raster))
+        }
+        len => {
+            let (v, from) = (rev[len - 1], rev[len - 2]);
+            let d = sample_direction(scene, &v, &from, TransportMode::Radiance, rng)?;
+            trace_from(scene, &v, d)
+        }
+    }
+}
+
+/// Extends the eye sub-path `rev` until its last vertex is non-specular (E S* D), keeping at
+/// most `max_vertices` vertices. False on escape, absorption or when the limit is hit first.
+pub fn extend_eye_to_diffuse(scene: &Scene, rev: &mut Vec<Vertex>, max_vertices: usize, rng: &mut Rng) -> bool {
+    loop {
+        if rev.len() > 1 && !rev[rev.len() - 1].delta {
+            return true;
+        }
+        if rev.len() >= max_vertices {
+            return false;
+        }
+        match step_eye(scene, rev, rng) {
+            Some(v) => rev.push(v),
+            None => return false,
+        }
+    }
+}
+
+/// A light-to-eye path from a light prefix `light` (x₀ …) and an eye sub-path `rev` (stored
+/// from the eye), joined by the edge between their last vertices.
+pub fn join(light: &[Vertex], rev: &[Vertex]) -> Vec<Vertex> {
+    let mut path = Vec::with_capacity(light.len() + rev.len());
+    path.extend_from_slice(light);
+    path.extend(rev.iter().rev());
+    path
+}
+
+/// One path-tracing sample of the whole image for the normalisation B and the chains' first
+/// states: an eye path through a raster point uniform over the image, extended by BSDF
+/// sampling up to `max_edges` edges; every emitter it hits and a light-sampling connection
+/// at each non-specular vertex (next-event estimation) make a complete path, weighted by the
+/// power heuristic between the two techniques [Veach 1997, §9.2]. `emit(path, c)` receives
+/// each path with c = w f / p, so that E[Σ c] = ∫ f dμ = B (per channel).
+pub fn path_tracing_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit: &mut impl FnMut(&[Vertex], Vec3)) {
+    let mut rev = vec![Vertex::eye(scene)];
+    while rev.len() <= max_edges {
+        let Some(z) = step_eye(scene, &rev, rng) else { return };
+        rev.push(z);
+        // `rev` has `rev.len() - 1` surface vertices: a path ending at the light z has that
+        // many edges, a connection from z one more.
+        if let Some(x0) = z.as_light(scene) {
+            weigh(scene, &join(&[x0], &rev[..rev.len() - 1]), false, emit);
+        }
+        if !z.delta && rev.len() <= max_edges {
+            let y = sample_light_vertex(scene, rng);
+            if visible(scene, &y, &z) {
+                let path = join(&[y], &rev);
+                weigh(scene, &path, true, emit);
+            }
+        }
+    }
+}
+
+/// Emits a path-tracing path with its MIS weight: `nee` says x₀ came from light sampling
+/// (else the eye walk hit it).
+fn weigh(scene: &Scene, path: &[Vertex], nee: bool, emit: &mut impl FnMut(&[Vertex], Vec3)) {
+    let Some((f, _)) = contribution(scene, path) else {
+        return;
+    };
+    if f == Vec3::ZERO {
+        return;
+    }
+    let k = path.len() - 1;
+    let eye_part: f64 = (1..k).map(|i| pdf_eye_side(scene, path, i) as f64).product();
+    let p_hit = eye_part * pdf_eye_side(scene, path, 0) as f64;
+    let p_nee = if k >= 2 && path[1].connectible() {
+        eye_part * pdf_light_side(scene, path, 0) as f64
+    } else {
+        0.0
+    };
+    let (p, other) = if nee { (p_nee, p_hit) } else { (p_hit, p_nee) };
+    if p <= 0.0 || !p.is_finite() {
+        return;
+    }
+    // The power heuristic [Veach 1997, eq. (9.13)], in f64: path densities under- and
+    // overflow f32.
+    let w = p * p / (p * p + other * other);
+    let c = f.as_dvec3() * (w / p);
+    if c.is_finite() {
+        emit(path, c.as_vec3());
+    }
+}
+
+/// Raster position of a path's last edge.
+pub fn raster_of(scene: &Scene, path: &[Vertex]) -> Option<Vec2> {
+    camera_factor(scene, &path[path.len() - 2]).map(|(r, _)| r)
+}
