@@ -314,9 +314,25 @@ impl Strategy for PhotonMapStrategy {
             name: "photon_trace",
             seconds: start.elapsed().as_secs_f64(),
         });
+        phases.extend(self.build_maps(scene, traced.global, traced.caustic));
+        Ok(phases)
+    }
+
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+        self.render_maps(scene, seed, samples, film);
+    }
+}
+
+impl PhotonMapStrategy {
+    /// Builds the kd-trees (and the precomputed irradiance, if asked for) from photon lists
+    /// that any photon tracer produced — standard photon tracing here, Metropolis photon
+    /// sampling in `mps` — ready for [`PhotonMapStrategy::render_maps`].
+    pub fn build_maps(&mut self, scene: &Scene, global: Vec<Photon>, caustic: Vec<Photon>) -> Vec<Phase> {
+        let p = &self.params;
+        let mut phases = Vec::new();
         let start = Instant::now();
-        let global = PhotonMap::build(traced.global);
-        let caustic = PhotonMap::build(traced.caustic);
+        let global = PhotonMap::build(global);
+        let caustic = PhotonMap::build(caustic);
         phases.push(Phase {
             name: "kdtree_build",
             seconds: start.elapsed().as_secs_f64(),
@@ -349,10 +365,11 @@ impl Strategy for PhotonMapStrategy {
             caustic_estimate,
             short_gather: p.short_gather.unwrap_or(2.0 * max_radius),
         });
-        Ok(phases)
+        phases
     }
 
-    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+    /// Renders by final gathering from the maps of the last `prepare` / `build_maps`.
+    pub fn render_maps(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
         let Some(maps) = &self.maps else { return };
         let r = Renderer {
             scene,
