@@ -8,6 +8,7 @@
 //! 0..64 at once or as 0..16, 16..64 gives the bit-identical image, on any number of threads.
 
 pub mod mlt;
+pub mod mps;
 pub mod path;
 pub mod photon_guided;
 pub mod photon_map;
@@ -65,6 +66,8 @@ pub mod stream {
     pub const CHAIN_START: u64 = 4;
     /// Mutations of chain c in block b: `[CHAIN, c, b]`.
     pub const CHAIN: u64 = 5;
+    /// Importon path i of `mps`'s importance normalisation: `[IMPORTON, i, 0]`.
+    pub const IMPORTON: u64 = 6;
 }
 
 /// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel
@@ -97,6 +100,7 @@ pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
         "photon_guided" => Ok(Box::new(photon_guided::PhotonGuided::new(parse_params(params)?)?)),
         "photon_map" => Ok(Box::new(photon_map::PhotonMapStrategy::new(parse_params(params)?)?)),
         "mlt" => Ok(Box::new(mlt::Mlt::new(parse_params(params)?)?)),
+        "mps" => Ok(Box::new(mps::Mps::from_table(params)?)),
         other => Err(Error::new(format!(
             "unknown strategy kind `{other}`; expected one of: {}",
             KINDS.join(", ")
@@ -105,7 +109,7 @@ pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
 }
 
 /// Every strategy kind, in the order `bench list` shows them.
-pub const KINDS: &[&str] = &["path", "photon_guided", "photon_map", "mlt"];
+pub const KINDS: &[&str] = &["path", "photon_guided", "photon_map", "mlt", "mps"];
 
 /// A strategy kind as `bench list` shows it.
 pub struct KindInfo {
@@ -141,6 +145,13 @@ pub fn describe() -> Vec<KindInfo> {
         kinds.push(KindInfo {
             kind: "mlt",
             summary: mlt::SUMMARY,
+            defaults: m.params(),
+        });
+    }
+    if let Ok(m) = mps::Mps::default_params() {
+        kinds.push(KindInfo {
+            kind: "mps",
+            summary: mps::SUMMARY,
             defaults: m.params(),
         });
     }

@@ -263,6 +263,15 @@ impl PhotonMapStrategy {
         self.counters.get()
     }
 
+    /// The search radius bound of every estimate in `scene`: `max_radius`, or 5 % of the
+    /// diagonal of the scene's bounding box.
+    pub fn max_radius(&self, scene: &Scene) -> f32 {
+        self.params
+            .max_radius
+            .unwrap_or(0.05 * scene_diagonal(scene))
+            .max(f32::MIN_POSITIVE)
+    }
+
     /// Photons in the global and caustic maps (0, 0 before `prepare`).
     pub fn map_sizes(&self) -> (usize, usize) {
         self.maps.as_ref().map_or((0, 0), |m| (m.global.len(), m.caustic.len()))
@@ -337,8 +346,7 @@ impl PhotonMapStrategy {
             name: "kdtree_build",
             seconds: start.elapsed().as_secs_f64(),
         });
-        let diagonal = scene_diagonal(scene);
-        let max_radius = p.max_radius.unwrap_or(0.05 * diagonal).max(f32::MIN_POSITIVE);
+        let max_radius = self.max_radius(scene);
         let estimate = EstimateParams {
             nearest: p.nearest,
             max_radius,

@@ -1,0 +1,564 @@
+//! `kind = "mps"`: Metropolis photon sampling [Fan, Chenney & Lai 2005]. A Metropolis chain
+//! over light-to-eye paths ([`crate::metropolis`], target f_eye / B_eye) decides where photons
+//! go; the photon maps are then rendered by the final gather of `photon_map`.
+//!
+//! **Phases**: `b_eye` (path-tracing estimate of B_eye and the chains' first states, the
+//! paper's t_B), `photon_sampling` (the chains), `kdtree_build` (with the sampling: the
+//! paper's t_map), optionally `irradiance_precompute`; rendering is the final gather (t_FG).
+//!
+//! **Storage points** [Fan et al. 2005, §3.2]: a path L (D|S)* D S* D S* E stores a photon in
+//! the global map at its second diffuse vertex counted from the eye (where final-gather rays
+//! land); a path L S+ D S* E stores one in the caustic map at its first diffuse vertex from the
+//! eye; other paths (L D S* E: direct light, L S* E) store nothing. The photon records the
+//! incoming direction and the light sub-path's flux density f_map(X_map) = Le G Π f_s G up to
+//! the storage point.
+//!
+//! **Photon power** (per channel) F = B_eye,Y · f_map(X_map) / (N · f_eye,Y(X)) [Fan et al.
+//! 2005, §3.2], N the number of Metropolis iterations over all chains. Every step stores the
+//! current path with weight 1 − a and the candidate with weight a (expected values, as in
+//! MLT); weights landing on the storage point and incoming direction of the photon being
+//! accumulated add to it instead of making a new photon (the paper's repeated paths).
+//!
+//! **A caveat we measured and keep visible** rather than patch: E[Σ F] over the chain is
+//! ∫ f_map(X_map) dμ(X), an integral over whole paths, eye sub-path included; the flux a
+//! photon map must hold is ∫ f_map dμ(X_map). The two differ by the measure of the eye
+//! sub-paths that can follow each light sub-path, so the paper's formula is exact only up to
+//! that (scene- and unit-dependent) factor. `counters()` reports the total stored power next
+//! to the power standard photon tracing delivers to the same storage points, and the
+//! experiments report the error against path-traced references, so the effect is on record.
+//!
+//! Parameters: `mutations` (N, default 200 000), the chain's ([`MetropolisParams`]:
+//! `proposals`, `max_depth`, `b_samples`, `chains`, `pm_gamma_deg`, `lens_r1_px`,
+//! `lens_r2_fraction`, `caustic_theta1`, `caustic_theta2`) and the final gather's
+//! ([`PhotonMapParams`]: `nearest`, `caustic_nearest`, `max_radius`, `gather_rays`,
+//! `secondary_gather_rays`, `short_gather`, `precomputed_irradiance`; `photons` does not
+//! apply). `max_depth` bounds both the chain's paths and the gather's specular bounces.
+
+use super::mlt::{chain_share, prepare_chains};
+use super::photon_map::{PhotonMapParams, PhotonMapStrategy};
+use super::{Phase, Strategy, parse_params};
+use crate::bsdf::SurfaceKind;
+use crate::bsdf::TransportMode;
+use crate::error::Result;
+use crate::film::Film;
+use crate::metropolis::proposals::Context;
+use crate::metropolis::{BEstimate, Chain, MetropolisParams, State, Tally, incoming};
+use crate::path_space::walk::{extend_eye_to_diffuse, sample_direction, trace_from};
+use crate::path_space::{Vertex, direction, first_diffuse_from_eye, light_throughput, pdf_eye_side};
+use crate::photon::{EstimateParams, Photon, PhotonMap, flags};
+use crate::sampling::Rng;
+use crate::scene::{Scene, luminance};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use serde::Deserialize;
+use std::ops::Range;
+use std::time::Instant;
+
+pub const SUMMARY: &str = "Metropolis photon sampling: photons from a Metropolis chain over light-to-eye paths, final gathering (Fan et al. 2005)";
+
+/// Keys of an `mps` table that belong to the chain.
+const CHAIN_KEYS: &[&str] = &[
+    "proposals",
+    "max_depth",
+    "b_samples",
+    "chains",
+    "pm_gamma_deg",
+    "lens_r1_px",
+    "lens_r2_fraction",
+    "caustic_theta1",
+    "caustic_theta2",
+];
+
+/// Largest accepted `mutations` and `importons`.
+const MAX_MUTATIONS: u64 = 10_000_000_000;
+
+/// How a stored path's photon power is computed.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PhotonPower {
+    /// F = B_Y f_map / (N f_Y) exactly as printed [Fan et al. 2005, §3.2]; its expectation
+    /// carries the measure of the eye sub-paths (see the module doc).
+    Paper,
+    /// F = B_Y f_map q(X_eye, x_s) / (N f_Y q_s(x_s)), normalised by the renderer's own
+    /// importance (see the module doc): unbiased up to the importon density estimate.
+    Importon,
+}
+
+/// Parameters of `mps` besides the chain's and the final gather's.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct MpsParams {
+    /// N, Metropolis iterations over all chains.
+    pub mutations: u64,
+    pub photon_power: PhotonPower,
+    /// Importon paths (camera ray + one gather ray) for the `importon` normalisation.
+    pub importons: u64,
+    /// Importons per density estimate.
+    pub importon_nearest: usize,
+}
+
+impl Default for MpsParams {
+    fn default() -> Self {
+        Self {
+            mutations: 200_000,
+            photon_power: PhotonPower::Importon,
+            importons: 1_000_000,
+            importon_nearest: 64,
+        }
+    }
+}
+
+/// Keys of an `mps` table that are [`MpsParams`].
+const MPS_KEYS: &[&str] = &["mutations", "photon_power", "importons", "importon_nearest"];
+
+pub struct Mps {
+    pub params: MpsParams,
+    pub chain: MetropolisParams,
+    gather: PhotonMapStrategy,
+    stats: Option<Stats>,
+}
+
+/// What `prepare` measured.
+#[derive(Clone, Debug, Default)]
+struct Stats {
+    b: BEstimate,
+    tally: Tally,
+    global: usize,
+    caustic: usize,
+    /// Total stored power (luminance) in each map.
+    global_power: f64,
+    caustic_power: f64,
+    /// Photons dropped because no importon came near them (the renderer never reads them).
+    unseen: usize,
+}
+
+impl Mps {
+    /// Parses an `mps` parameter table: its own keys, the chain's keys, the final gather's keys.
+    pub fn from_table(mut table: toml::Table) -> Result<Self> {
+        if table.contains_key("photons") {
+            crate::bail!("photons: does not apply to mps (its photon count follows from `mutations`)");
+        }
+        let take = |table: &mut toml::Table, keys: &[&str], keep: &[&str]| {
+            let mut out = toml::Table::new();
+            for key in keys {
+                if let Some(v) = table.get(*key) {
+                    out.insert(key.to_string(), v.clone());
+                    if !keep.contains(key) {
+                        table.remove(*key);
+                    }
+                }
+            }
+            out
+        };
+        let params: MpsParams = parse_params(take(&mut table, MPS_KEYS, &[]))?;
+        if params.mutations == 0 || params.mutations > MAX_MUTATIONS {
+            crate::bail!("mutations: expected 1..={MAX_MUTATIONS}, got {}", params.mutations);
+        }
+        if params.importons == 0 || params.importons > MAX_MUTATIONS {
+            crate::bail!("importons: expected 1..={MAX_MUTATIONS}, got {}", params.importons);
+        }
+        if params.importon_nearest == 0 || params.importon_nearest > 10_000 {
+            crate::bail!("importon_nearest: expected 1..=10000, got {}", params.importon_nearest);
+        }
+        let chain: MetropolisParams = parse_params(take(&mut table, CHAIN_KEYS, &["max_depth"]))?;
+        chain.validate()?;
+        let gather_params: PhotonMapParams = parse_params(table)?;
+        Ok(Self {
+            params,
+            chain,
+            gather: PhotonMapStrategy::new(gather_params)?,
+            stats: None,
+        })
+    }
+
+    /// Default parameters (for `bench list`).
+    pub fn default_params() -> Result<Self> {
+        Self::from_table(toml::Table::new())
+    }
+}
+
+impl Strategy for Mps {
+    fn kind(&self) -> &'static str {
+        "mps"
+    }
+
+    fn params(&self) -> Vec<(&'static str, String)> {
+        let p = &self.params;
+        let mut out = vec![
+            ("mutations", p.mutations.to_string()),
+            ("photon_power", format!("{:?}", p.photon_power).to_lowercase()),
+            ("importons", p.importons.to_string()),
+            ("importon_nearest", p.importon_nearest.to_string()),
+        ];
+        out.extend(self.chain.describe());
+        out.extend(
+            self.gather
+                .params()
+                .into_iter()
+                .filter(|(k, _)| *k != "photons" && *k != "max_depth"),
+        );
+        out
+    }
+
+    fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
+        let start = Instant::now();
+        let (b, starts, user_paths) = prepare_chains(scene, &self.chain, seed)?;
+        let mut phases = vec![Phase {
+            name: "b_eye",
+            seconds: start.elapsed().as_secs_f64(),
+        }];
+        let start = Instant::now();
+        let ctx = Context {
+            scene,
+            params: &self.chain,
+            user_paths: &user_paths,
+            max_edges: self.chain.max_depth as usize + 1,
+        };
+        let importons = (self.params.photon_power == PhotonPower::Importon).then(|| {
+            let estimate = EstimateParams {
+                nearest: self.params.importon_nearest,
+                max_radius: self.gather.max_radius(scene),
+                ..EstimateParams::default()
+            };
+            let max_edges = self.chain.max_depth as usize + 1;
+            Importons::trace(scene, self.params.importons, max_edges, estimate, seed)
+        });
+        if importons.is_some() {
+            phases.push(Phase {
+                name: "importon_trace",
+                seconds: start.elapsed().as_secs_f64(),
+            });
+        }
+        let start = Instant::now();
+        let sampled = sample_photons(&ctx, &starts, &self.params, b.b_y, importons.as_ref(), seed);
+        phases.push(Phase {
+            name: "photon_sampling",
+            seconds: start.elapsed().as_secs_f64(),
+        });
+        let power = |v: &[Photon]| v.iter().map(|p| luminance(p.power()) as f64).sum::<f64>();
+        self.stats = Some(Stats {
+            b,
+            tally: sampled.tally,
+            global: sampled.global.len(),
+            caustic: sampled.caustic.len(),
+            global_power: power(&sampled.global),
+            caustic_power: power(&sampled.caustic),
+            unseen: sampled.unseen,
+        });
+        phases.extend(self.gather.build_maps(scene, sampled.global, sampled.caustic));
+        Ok(phases)
+    }
+
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+        self.gather.render_maps(scene, seed, samples, film);
+    }
+
+    fn counters(&self) -> Vec<(String, f64)> {
+        let Some(s) = &self.stats else { return Vec::new() };
+        let mut out = vec![
+            ("b_eye".to_string(), s.b.b_y),
+            ("b_eye_std_error".to_string(), s.b.std_error),
+            ("mutations".to_string(), self.params.mutations as f64),
+            ("photons_unseen".to_string(), s.unseen as f64),
+            ("global_photons".to_string(), s.global as f64),
+            ("caustic_photons".to_string(), s.caustic as f64),
+            ("global_power_y".to_string(), s.global_power),
+            ("caustic_power_y".to_string(), s.caustic_power),
+            ("bytes_per_photon".to_string(), Photon::BYTES as f64),
+        ];
+        out.extend(s.tally.counters());
+        out.extend(Strategy::counters(&self.gather));
+        out
+    }
+}
+
+/// Which map a path stores into, at which vertex, with which flags.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Map {
+    Global,
+    Caustic,
+}
+
+/// The storage point of a path (see the module doc), if it has one.
+pub fn storage_point(scene: &Scene, path: &[Vertex]) -> Option<(Map, usize, u8)> {
+    let diffuse = |v: &Vertex| !v.delta && v.bsdf(scene).kind() == SurfaceKind::Diffuse;
+    let d = first_diffuse_from_eye(path)?;
+    if !diffuse(&path[d]) {
+        return None;
+    }
+    let s = (0..d).rev().find(|&i| !path[i].delta)?;
+    if s >= 1 {
+        if !diffuse(&path[s]) {
+            return None;
+        }
+        let mut f = 0;
+        if s >= 2 {
+            f |= flags::INDIRECT;
+            if path[1..s].iter().all(|v| v.delta) {
+                f |= flags::CAUSTIC;
+            }
+        }
+        Some((Map::Global, s, f))
+    } else if d >= 2 {
+        Some((Map::Caustic, d, flags::CAUSTIC | flags::INDIRECT))
+    } else {
+        None
+    }
+}
+
+/// A photon being accumulated: where, from where, and its power so far.
+#[derive(Clone, Copy, Debug)]
+struct Deposit {
+    map: Map,
+    p: Vec3,
+    from: Vec3,
+    wi: Vec3,
+    n: Vec3,
+    flags: u8,
+    /// F of one whole visit (weight 1).
+    unit: Vec3,
+    power: DVec3,
+}
+
+impl Deposit {
+    /// The deposit of `state`: per unit weight B_Y f_map / (N f_Y), times q(X_eye, x_s) with
+    /// the importon normalisation (whose 1 / q_s(x_s) is applied when the photon is emitted);
+    /// `None` when the path stores nothing.
+    fn of(scene: &Scene, state: &State, b_y: f64, n: u64, power: PhotonPower) -> Option<Self> {
+        let path = &state.path;
+        let (map, s, flags) = storage_point(scene, path)?;
+        let f_map = light_throughput(scene, path, s);
+        let q_eye = match power {
+            PhotonPower::Paper => 1.0,
+            PhotonPower::Importon => (s..path.len() - 1)
+                .map(|i| pdf_eye_side(scene, path, i) as f64)
+                .product(),
+        };
+        let unit = (f_map.as_dvec3() * (b_y * q_eye / (n as f64 * state.f_y as f64))).as_vec3();
+        if !unit.is_finite() || unit == Vec3::ZERO {
+            return None;
+        }
+        let v = &path[s];
+        let wi = incoming(path, s);
+        let n = if v.ng.dot(wi) >= 0.0 { v.ng } else { -v.ng };
+        Some(Self {
+            map,
+            p: v.p,
+            from: path[s - 1].p,
+            wi,
+            n,
+            flags,
+            unit,
+            power: DVec3::ZERO,
+        })
+    }
+
+    fn same_photon(&self, o: &Deposit) -> bool {
+        self.map == o.map && self.p == o.p && self.from == o.from
+    }
+
+    fn add(&mut self, weight: f32) {
+        self.power += self.unit.as_dvec3() * weight as f64;
+    }
+}
+
+/// Photons of all chains, in chain order.
+struct Sampled {
+    global: Vec<Photon>,
+    caustic: Vec<Photon>,
+    tally: Tally,
+    unseen: usize,
+}
+
+/// The renderer's importance, as densities of importons: where camera paths first meet a
+/// diffuse surface (caustic map lookups) and where their first gather ray lands (global map
+/// lookups).
+pub struct Importons {
+    caustic: PhotonMap,
+    global: PhotonMap,
+    estimate: EstimateParams,
+    paths: u64,
+}
+
+impl Importons {
+    /// Traces `paths` importon paths: a camera ray through a raster point uniform over the
+    /// image, specular bounces (lobes sampled) to the first diffuse hit x_d, one BSDF-sampled
+    /// gather ray from it, specular bounces to the next diffuse hit — exactly how the final
+    /// gather generates the eye sub-paths that read each map.
+    pub fn trace(scene: &Scene, paths: u64, max_edges: usize, estimate: EstimateParams, seed: u64) -> Self {
+        const BLOCK: u64 = 4096;
+        let blocks: Vec<(Vec<Photon>, Vec<Photon>)> = (0..paths.div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let (mut caustic, mut global) = (Vec::new(), Vec::new());
+                for i in b * BLOCK..((b + 1) * BLOCK).min(paths) {
+                    let mut rng = Rng::for_task(seed, [super::stream::IMPORTON, i, 0]);
+                    let mut rev = vec![Vertex::eye(scene)];
+                    if !extend_eye_to_diffuse(scene, &mut rev, max_edges, &mut rng) {
+                        continue;
+                    }
+                    let Some(ip) = importon(scene, &rev) else { continue };
+                    caustic.push(ip);
+                    let (xd, from) = (rev[rev.len() - 1], rev[rev.len() - 2]);
+                    let Some(hit) = sample_direction(scene, &xd, &from, TransportMode::Radiance, &mut rng)
+                        .and_then(|w| trace_from(scene, &xd, w))
+                    else {
+                        continue;
+                    };
+                    rev.push(hit);
+                    if extend_eye_to_diffuse(scene, &mut rev, 2 * max_edges, &mut rng)
+                        && let Some(ip) = importon(scene, &rev)
+                    {
+                        global.push(ip);
+                    }
+                }
+                (caustic, global)
+            })
+            .collect();
+        let (mut caustic, mut global) = (Vec::new(), Vec::new());
+        for (c, g) in blocks {
+            caustic.extend(c);
+            global.extend(g);
+        }
+        Self {
+            caustic: PhotonMap::build(caustic),
+            global: PhotonMap::build(global),
+            estimate,
+            paths,
+        }
+    }
+
+    /// Density (per unit area) with which the renderer's eye sub-paths reach `p` on the side
+    /// of `n`, for lookups in `map`.
+    fn density(&self, map: Map, p: Vec3, n: Vec3) -> f64 {
+        let m = match map {
+            Map::Global => &self.global,
+            Map::Caustic => &self.caustic,
+        };
+        if m.is_empty() {
+            return 0.0;
+        }
+        m.irradiance(p, n, &self.estimate).value.x as f64 / self.paths as f64
+    }
+}
+
+/// An importon at the last vertex of an eye sub-path, if it is diffuse: unit "power", the
+/// direction it came from and the normal on that side.
+fn importon(scene: &Scene, rev: &[Vertex]) -> Option<Photon> {
+    let v = rev[rev.len() - 1];
+    if v.delta || v.bsdf(scene).kind() != SurfaceKind::Diffuse {
+        return None;
+    }
+    let wi = direction(&v, &rev[rev.len() - 2]).0;
+    let n = if v.ng.dot(wi) >= 0.0 { v.ng } else { -v.ng };
+    Some(Photon::new(v.p, Vec3::ONE, wi, n, 0))
+}
+
+/// Runs the chains for `mutations` iterations in total and stores their photons.
+fn sample_photons(
+    ctx: &Context,
+    starts: &[State],
+    params: &MpsParams,
+    b_y: f64,
+    importons: Option<&Importons>,
+    seed: u64,
+) -> Sampled {
+    let chains = starts.len() as u64;
+    let mutations = params.mutations;
+    let power = params.photon_power;
+    let results: Vec<Sampled> = starts
+        .par_iter()
+        .enumerate()
+        .map(|(c, start)| {
+            let ctx = Context {
+                scene: ctx.scene,
+                params: ctx.params,
+                user_paths: ctx.user_paths,
+                max_edges: ctx.max_edges,
+            };
+            let scene = ctx.scene;
+            let mut chain = Chain::new(ctx, start.clone());
+            let mut rng = Rng::for_task(seed, [super::stream::CHAIN, c as u64, 0]);
+            let mut out = Sampled {
+                global: Vec::new(),
+                caustic: Vec::new(),
+                tally: Tally::default(),
+                unseen: 0,
+            };
+            let mut emit = |d: Deposit| {
+                let mut power = d.power;
+                if let Some(imp) = importons {
+                    let q = imp.density(d.map, d.p, d.n);
+                    if q <= 0.0 {
+                        out.unseen += 1;
+                        return;
+                    }
+                    power /= q;
+                }
+                let photon = Photon::new(d.p, power.as_vec3(), d.wi, d.n, d.flags);
+                match d.map {
+                    Map::Global => out.global.push(photon),
+                    Map::Caustic => out.caustic.push(photon),
+                }
+            };
+            let deposit = |s: &State| Deposit::of(scene, s, b_y, mutations, power);
+            let mut current = deposit(&chain.current);
+            let mut tally = Tally::default();
+            for _ in 0..chain_share(mutations, chains, c as u64) {
+                let step = chain.step(&mut rng, &mut tally);
+                if let Some(cur) = &mut current {
+                    cur.add(1.0 - step.a);
+                }
+                let cand = match (&step.candidate, step.a > 0.0) {
+                    (Some(s), true) => deposit(s),
+                    _ => None,
+                };
+                if step.accept {
+                    match (current.take(), cand) {
+                        (Some(mut old), Some(new)) if old.same_photon(&new) => {
+                            old.unit = new.unit;
+                            old.add(step.a);
+                            current = Some(old);
+                        }
+                        (old, new) => {
+                            if let Some(old) = old {
+                                emit(old);
+                            }
+                            current = new.map(|mut d| {
+                                d.add(step.a);
+                                d
+                            });
+                        }
+                    }
+                } else if let Some(mut new) = cand {
+                    match &mut current {
+                        Some(cur) if cur.same_photon(&new) => cur.power += new.unit.as_dvec3() * step.a as f64,
+                        _ => {
+                            new.add(step.a);
+                            emit(new);
+                        }
+                    }
+                }
+                chain.commit(step);
+            }
+            if let Some(cur) = current {
+                emit(cur);
+            }
+            out.tally = tally;
+            out
+        })
+        .collect();
+    let mut all = Sampled {
+        global: Vec::new(),
+        caustic: Vec::new(),
+        tally: Tally::default(),
+        unseen: 0,
+    };
+    for r in results {
+        all.global.extend(r.global);
+        all.caustic.extend(r.caustic);
+        all.tally.merge(&r.tally);
+        all.unseen += r.unseen;
+    }
+    all
+}
