@@ -45,6 +45,7 @@ type Splats = Vec<(u32, Vec3)>;
 /// Chain states between passes.
 #[derive(Default)]
 struct Progress {
+    seed: u64,
     next_sample: u32,
     states: Vec<State>,
     tally: Tally,
@@ -118,8 +119,9 @@ impl Strategy for Mlt {
     fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
         let Some(prep) = &self.prepared else { return };
         let mut progress = self.progress.lock().unwrap();
-        if progress.states.is_empty() || progress.next_sample > samples.start {
+        if progress.states.is_empty() || progress.seed != seed || progress.next_sample > samples.start {
             *progress = Progress {
+                seed,
                 next_sample: 0,
                 states: prep.starts.clone(),
                 tally: Tally::default(),
