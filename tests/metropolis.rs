@@ -17,7 +17,7 @@ use photon_bench::metropolis::{Chain, MetropolisParams, ProposalMix, State, Tall
 use photon_bench::sampling::Rng;
 use photon_bench::sampling::chi2::chi2_upper_tail;
 use photon_bench::scene::{Scene, UserPath, load_scene, luminance};
-use photon_bench::strategy::{self, Strategy as _};
+use photon_bench::strategy;
 
 const W: u32 = 24;
 const H: u32 = 24;
@@ -91,15 +91,15 @@ fn features(path: &[photon_bench::path_space::Vertex]) -> [usize; 2] {
     [by_length, by_edge]
 }
 
+/// Block estimates, feature estimates (mean, standard error), B's relative standard error and
+/// the proposal tallies.
+type ChainEstimates = (Vec<(f64, f64)>, Vec<(f64, f64)>, f64, Tally);
+
 /// The chain's estimates, one per chain: block mean luminances and ∫ h f_Y dμ of each
 /// feature. Each chain starts from its own state resampled ∝ f / p, so each chain's estimate
 /// is unbiased and independent of the others whatever its mixing (a wrong T still biases it;
 /// reachability has its own test); the first `burn_in` steps are discarded all the same.
-fn chain_estimates(
-    scene: &Scene,
-    proposals: ProposalMix,
-    mutations_per_chain: u64,
-) -> (Vec<(f64, f64)>, Vec<(f64, f64)>, f64, Tally) {
+fn chain_estimates(scene: &Scene, proposals: ProposalMix, mutations_per_chain: u64) -> ChainEstimates {
     let params = MetropolisParams {
         proposals,
         b_samples: 200_000,
