@@ -1,0 +1,123 @@
+//! Metropolis photon sampling: the photon powers hold the flux a photon map must hold.
+//!
+//! - Radiance does not depend on the unit of length: a scene scaled by 10 renders the same
+//!   image. With the importon normalisation MPS does; the paper's printed power formula
+//!   carries the measure of the eye sub-paths and renders a scaled scene far too bright (the
+//!   reason the normalisation exists; `photon_power = "paper"` keeps the formula selectable).
+//! - The global map holds the flux that reaches the storage points: in a closed box whose
+//!   every diffuse point the final gather can reach, the same total as standard photon
+//!   tracing's global map.
+//! - The rendered image matches path tracing in mean.
+
+use photon_bench::camera::Camera;
+use photon_bench::film::Film;
+use photon_bench::photon::{CausticStorage, TraceParams, trace_photons};
+use photon_bench::scene::load::load_scene_bytes;
+use photon_bench::scene::{Scene, luminance};
+use photon_bench::strategy::{self, Strategy};
+use std::path::Path;
+
+/// A scene file with every length (camera position, shape centres, sizes, radii) times `s`.
+fn scaled_scene(file: &str, s: f64, width: u32, height: u32) -> Scene {
+    fn scale(v: &mut toml::Value, s: f64) {
+        match v {
+            toml::Value::Float(x) => *x *= s,
+            toml::Value::Integer(i) => *v = toml::Value::Float(*i as f64 * s),
+            toml::Value::Array(a) => a.iter_mut().for_each(|x| scale(x, s)),
+            _ => {}
+        }
+    }
+    fn walk(v: &mut toml::Value, s: f64) {
+        match v {
+            toml::Value::Table(t) => {
+                for (k, x) in t.iter_mut() {
+                    if ["eye", "look_at", "center", "size", "radius"].contains(&k.as_str()) {
+                        scale(x, s);
+                    } else {
+                        walk(x, s);
+                    }
+                }
+            }
+            toml::Value::Array(a) => a.iter_mut().for_each(|x| walk(x, s)),
+            _ => {}
+        }
+    }
+    let path = Path::new(file);
+    let mut doc: toml::Value = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    walk(&mut doc, s);
+    let (mut scene, _) = load_scene_bytes(path, toml::to_string(&doc).unwrap().as_bytes()).unwrap();
+    let c = &scene.camera;
+    scene.camera = Camera::new(c.eye, c.look_at, c.up, c.fov_y_deg, width, height);
+    scene
+}
+
+fn mean_luminance(scene: &Scene, strategy: &mut dyn Strategy, spp: u32) -> f64 {
+    strategy.prepare(scene, 5).unwrap();
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    strategy.render_pass(scene, 5, 0..spp, &mut film);
+    let img = film.image();
+    img.pixels.iter().map(|p| luminance(*p) as f64).sum::<f64>() / img.pixels.len() as f64
+}
+
+fn mps(power: &str) -> Box<dyn Strategy> {
+    let table: toml::Table = toml::from_str(&format!(
+        "mutations = 150000\nb_samples = 50000\nimportons = 300000\ngather_rays = 12\nphoton_power = \"{power}\""
+    ))
+    .unwrap();
+    strategy::build("mps", table).unwrap()
+}
+
+fn counter(s: &dyn Strategy, name: &str) -> f64 {
+    s.counters().into_iter().find(|(k, _)| k == name).unwrap().1
+}
+
+#[test]
+fn importon_normalised_photons_render_a_scaled_scene_alike_and_the_paper_formula_does_not() {
+    let one = scaled_scene("scenes/cornell-spheres.toml", 1.0, 24, 24);
+    let ten = scaled_scene("scenes/cornell-spheres.toml", 10.0, 24, 24);
+    let a = mean_luminance(&one, mps("importon").as_mut(), 2);
+    let b = mean_luminance(&ten, mps("importon").as_mut(), 2);
+    eprintln!("importon {a} {b}");
+    assert!((a / b - 1.0).abs() < 0.02, "importon: scale 1 → {a}, scale 10 → {b}");
+    let pa = mean_luminance(&one, mps("paper").as_mut(), 2);
+    let pb = mean_luminance(&ten, mps("paper").as_mut(), 2);
+    eprintln!("paper {pa} {pb}");
+    assert!(pb > 10.0 * pa, "paper: scale 1 → {pa}, scale 10 → {pb}");
+}
+
+#[test]
+fn mps_matches_path_tracing_in_mean() {
+    let scene = scaled_scene("scenes/cornell-empty.toml", 1.0, 32, 24);
+    let reference = mean_luminance(
+        &scene,
+        strategy::build("path", toml::Table::new()).unwrap().as_mut(),
+        256,
+    );
+    let m = mean_luminance(&scene, mps("importon").as_mut(), 2);
+    eprintln!("mean {m} {reference}");
+    assert!((m / reference - 1.0).abs() < 0.04, "mps {m} vs path {reference}");
+}
+
+#[test]
+fn global_map_holds_the_flux_photon_tracing_stores() {
+    let scene = scaled_scene("scenes/cornell-empty.toml", 1.0, 32, 24);
+    let mut s = mps("importon");
+    s.prepare(&scene, 9).unwrap();
+    let stored = counter(s.as_ref(), "global_power_y");
+    let traced = trace_photons(
+        &scene,
+        &TraceParams {
+            photons: 200_000,
+            max_depth: 16,
+            store_direct: true,
+            caustics: CausticStorage::Both,
+        },
+        9,
+    );
+    let reference: f64 = traced.global.iter().map(|p| luminance(p.power()) as f64).sum();
+    eprintln!("power {stored} {reference}");
+    assert!(
+        (stored / reference - 1.0).abs() < 0.05,
+        "MPS global map {stored} vs photon tracing {reference}"
+    );
+}
