@@ -43,6 +43,16 @@ pub struct PerfReport {
     /// Final-gather rays per second of `photon_map` (defaults, precomputed irradiance at every
     /// 4th photon, 1 spp over the image), lookups and shading included.
     pub gather_rays_per_s: f64,
+    /// Metropolis steps per second with each proposal alone (NaN: UP without user paths).
+    pub up_mutations_per_s: f64,
+    pub bd_mutations_per_s: f64,
+    pub pm_mutations_per_s: f64,
+    pub cp_mutations_per_s: f64,
+    pub lp_mutations_per_s: f64,
+    pub ls_mutations_per_s: f64,
+    /// Photons `mps` stores per second of its Metropolis sampling (defaults, importon
+    /// normalisation, 200 000 steps).
+    pub mps_photons_per_s: f64,
     pub cpu: String,
     pub git_revision: String,
 }
@@ -124,8 +134,16 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
 
     let photons = measure_photons(scene, seed);
     let gather_rays_per_s = measure_gather(scene, seed);
+    let mutations = measure_mutations(scene, seed);
     PerfReport {
         gather_rays_per_s,
+        up_mutations_per_s: mutations[0],
+        bd_mutations_per_s: mutations[1],
+        pm_mutations_per_s: mutations[2],
+        cp_mutations_per_s: mutations[3],
+        lp_mutations_per_s: mutations[4],
+        ls_mutations_per_s: mutations[5],
+        mps_photons_per_s: measure_mps_photons(scene, seed),
         photons_per_s: photons.0,
         photons_stored: photons.1,
         knn_queries_per_s: photons.2,
@@ -218,6 +236,95 @@ fn measure_gather(scene: &Scene, seed: u64) -> f64 {
     let start = Instant::now();
     strategy.render_pass(scene, seed, 0..1, &mut film);
     strategy.counters().gather_rays as f64 / start.elapsed().as_secs_f64()
+}
+
+/// Metropolis steps per second of each proposal alone (UP with a chain that is UP alone,
+/// which validation refuses for rendering but is fine for timing), 64 chains of 5000 steps
+/// from path-tracing first states; NaN where a proposal cannot run.
+fn measure_mutations(scene: &Scene, seed: u64) -> [f64; 6] {
+    use crate::metropolis::proposals::Context;
+    use crate::metropolis::{Chain, MetropolisParams, Proposal, ProposalMix, State, Tally, estimate_b};
+    let base = MetropolisParams {
+        b_samples: 20_000,
+        ..MetropolisParams::default()
+    };
+    let Ok((_, starts)) = estimate_b(scene, &base, seed) else {
+        return [f64::NAN; 6];
+    };
+    let user_paths = crate::metropolis::prepare_user_paths(scene).unwrap_or_default();
+    let starts: Vec<State> = starts.into_iter().filter_map(|p| State::new(scene, p)).collect();
+    Proposal::ALL.map(|kind| {
+        if kind == Proposal::Up && user_paths.is_empty() {
+            return f64::NAN;
+        }
+        let mut mix = ProposalMix {
+            up: 0.0,
+            bd: 0.0,
+            pm: 0.0,
+            cp: 0.0,
+            lp: 0.0,
+            ls: 0.0,
+        };
+        match kind {
+            Proposal::Up => mix.up = 1.0,
+            Proposal::Bd => mix.bd = 1.0,
+            Proposal::Pm => mix.pm = 1.0,
+            Proposal::Cp => mix.cp = 1.0,
+            Proposal::Lp => mix.lp = 1.0,
+            Proposal::Ls => mix.ls = 1.0,
+        }
+        let params = MetropolisParams {
+            proposals: mix,
+            ..base.clone()
+        };
+        const STEPS: u64 = 5000;
+        let start = Instant::now();
+        let accepted: u64 = starts
+            .par_iter()
+            .enumerate()
+            .map(|(c, s)| {
+                let ctx = Context {
+                    scene,
+                    params: &params,
+                    user_paths: &user_paths,
+                    max_edges: params.max_depth as usize + 1,
+                };
+                let mut chain = Chain::new(ctx, s.clone());
+                let mut rng = Rng::for_task(seed, [stream::CHAIN, c as u64, 0]);
+                let mut tally = Tally::default();
+                for _ in 0..STEPS {
+                    let step = chain.step(&mut rng, &mut tally);
+                    chain.commit(step);
+                }
+                tally.accepted.iter().sum::<u64>()
+            })
+            .sum();
+        std::hint::black_box(accepted);
+        (starts.len() as u64 * STEPS) as f64 / start.elapsed().as_secs_f64()
+    })
+}
+
+/// Photons stored per second of `mps`'s Metropolis sampling phase (defaults).
+fn measure_mps_photons(scene: &Scene, seed: u64) -> f64 {
+    use crate::strategy::Strategy;
+    let Ok(mut mps) = crate::strategy::mps::Mps::default_params() else {
+        return f64::NAN;
+    };
+    let Ok(phases) = mps.prepare(scene, seed) else {
+        return f64::NAN;
+    };
+    let seconds: f64 = phases
+        .iter()
+        .filter(|p| p.name == "photon_sampling")
+        .map(|p| p.seconds)
+        .sum();
+    let stored: f64 = mps
+        .counters()
+        .iter()
+        .filter(|(k, _)| k == "global_photons" || k == "caustic_photons")
+        .map(|(_, v)| v)
+        .sum();
+    stored / seconds
 }
 
 /// Appends `report` to a CSV file (header written when the file is new).
