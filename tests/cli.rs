@@ -459,3 +459,66 @@ fn shards_on_two_machines_merge_into_the_results_of_one_run() {
         &["--shard"],
     );
 }
+
+#[test]
+fn strategy_counters_are_recorded_per_checkpoint_and_kept_by_the_cell_cache() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let experiment = r#"
+scenes = ["../scenes/tiny.toml"]
+spp = [1, 2]
+seconds = [0.05]
+[[strategy]]
+kind = "path"
+[[strategy]]
+kind = "photon_map"
+photons = 2000
+gather_rays = 4
+"#;
+    std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
+    let mut runs = Vec::new();
+    for _ in 0..2 {
+        let o = bench(root, &["run", "experiments/tiny.toml"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        runs.push(root.join(String::from_utf8_lossy(&o.stdout).trim()));
+    }
+    let rows = photon_bench::report::rows::read_csv(&runs[0].join("metrics.csv")).unwrap();
+    assert_eq!(rows.len(), 2 * 3);
+    use photon_bench::report::rows::counter;
+    let pixels = 16.0 * 12.0;
+    for r in &rows {
+        if r.kind == "path" {
+            assert_eq!(r.counters, "", "path counts nothing");
+            continue;
+        }
+        // Nearly every camera ray of the empty box ends on a wall: up to spp × pixels × 4
+        // primary gather rays, plus 12 per secondary gather. The equal-time row counts its
+        // own film only (not the equal-samples film rendered before it).
+        let rays = counter(r, "gather_rays").unwrap();
+        let most = r.spp as f64 * pixels * 4.0 + 12.0 * counter(r, "secondary_gathers").unwrap();
+        assert!(
+            rays <= most && rays > 0.97 * most,
+            "{} {}: {} of at most {most}",
+            r.budget,
+            r.spp,
+            r.counters
+        );
+        assert!(counter(r, "global_photons").unwrap() > 2000.0, "{}", r.counters);
+        assert_eq!(counter(r, "bytes_per_photon"), Some(24.0));
+    }
+    // The second run takes both cells from the cache, counters included.
+    let again = photon_bench::report::rows::read_csv(&runs[1].join("metrics.csv")).unwrap();
+    let counters =
+        |rows: &[photon_bench::report::rows::Row]| -> Vec<String> { rows.iter().map(|r| r.counters.clone()).collect() };
+    assert_eq!(counters(&rows), counters(&again));
+    let summary = std::fs::read_to_string(runs[0].join("summary.md")).unwrap();
+    assert!(summary.contains("### counters"), "{summary}");
+    assert!(summary.contains("| photon_map | 2 spp | 1 |"), "{summary}");
+    let html = std::fs::read_to_string(runs[0].join("index.html")).unwrap();
+    assert!(html.contains("<th>gather_rays</th>"));
+}

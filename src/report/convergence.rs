@@ -250,6 +250,13 @@ pub fn write_summary(name: &str, description: &str, rows: &[Row], dir: &Path) ->
             }
             let _ = writeln!(md);
         }
+        if let Some(table) = super::counters::table(rows, scene) {
+            let _ = writeln!(
+                md,
+                "### counters\n\nWhat each strategy counted (mean over seeds), at its largest checkpoint of each budget kind.\n"
+            );
+            let _ = writeln!(md, "{}", table.markdown());
+        }
         let has_seconds = groups.iter().any(|g| g.scene == scene && g.budget == BUDGET_SECONDS);
         let has_spp = groups.iter().any(|g| g.scene == scene && g.budget == BUDGET_SPP);
         if has_spp {

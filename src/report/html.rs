@@ -117,6 +117,31 @@ pub fn write_index(rows: &[Row], dir: &Path) -> Result<()> {
         }
         let _ = writeln!(h, "</table>");
 
+        if let Some(table) = super::counters::table(rows, scene) {
+            let _ = write!(
+                h,
+                "<h3>Counters</h3>\n<p>What each strategy counted (mean over seeds), at its largest checkpoint of each budget kind.</p>\n<table><tr><th>strategy</th><th>budget</th><th>n</th>"
+            );
+            for name in &table.names {
+                let _ = write!(h, "<th>{}</th>", esc(name));
+            }
+            let _ = writeln!(h, "</tr>");
+            for l in &table.lines {
+                let _ = write!(
+                    h,
+                    "<tr><td>{}</td><td>{}</td><td>{}</td>",
+                    esc(&l.strategy),
+                    esc(&l.budget),
+                    l.seeds
+                );
+                for v in &l.values {
+                    let _ = write!(h, "<td>{}</td>", v.map_or("–".into(), super::counters::show));
+                }
+                let _ = writeln!(h, "</tr>");
+            }
+            let _ = writeln!(h, "</table>");
+        }
+
         let _ = writeln!(h, "<h3>Images</h3>");
         for at in &largest {
             let Some(g) = at.first() else { continue };

@@ -4,6 +4,7 @@
 pub mod bars;
 pub mod compare;
 pub mod convergence;
+pub mod counters;
 pub mod html;
 pub mod plot;
 pub mod rows;
