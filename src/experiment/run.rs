@@ -374,8 +374,10 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
     write_csv(&rows, &dir.join("metrics.csv"))?;
     write_strips(exp, prepared, &rows, dir)?;
     crate::report::write_plots(&rows, dir)?;
-    crate::report::write_summary(&exp.name, &exp.description, &rows, dir)?;
-    crate::report::html::write_index(&rows, dir)?;
+    let gathers = crate::report::final_gather::comparisons(&rows, dir)?;
+    crate::report::final_gather::write_csv(&gathers, dir)?;
+    crate::report::write_summary(&exp.name, &exp.description, &rows, &gathers, dir)?;
+    crate::report::html::write_index(&rows, &gathers, dir)?;
     Ok((cached, rendered))
 }
 

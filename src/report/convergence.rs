@@ -200,7 +200,15 @@ fn num(v: f64) -> String {
 
 /// `summary.md`: per scene and metric, every strategy at every checkpoint as mean, standard
 /// deviation and [`CONFIDENCE`] Student-t interval over seeds, and links to the plots.
-pub fn write_summary(name: &str, description: &str, rows: &[Row], dir: &Path) -> Result<()> {
+/// `gathers` adds Christensen's comparison of final-gathering variants
+/// ([`super::final_gather`]) to the scenes that have one.
+pub fn write_summary(
+    name: &str,
+    description: &str,
+    rows: &[Row],
+    gathers: &[super::final_gather::Comparison],
+    dir: &Path,
+) -> Result<()> {
     let mut md = String::new();
     let _ = writeln!(md, "# {name}\n");
     if !description.is_empty() {
@@ -250,6 +258,7 @@ pub fn write_summary(name: &str, description: &str, rows: &[Row], dir: &Path) ->
             }
             let _ = writeln!(md);
         }
+        let _ = write!(md, "{}", super::final_gather::markdown(gathers, scene));
         if let Some(table) = super::counters::table(rows, scene) {
             let _ = writeln!(
                 md,

@@ -183,10 +183,12 @@ pub struct PhotonMapCounters {
     pub irradiance_lookups: u64,
     /// Caustic-map radiance estimates.
     pub caustic_estimates: u64,
+    /// Final gathers at camera-path hits (each of `gather_rays` rays).
+    pub final_gathers: u64,
 }
 
 #[derive(Default)]
-struct AtomicCounters([AtomicU64; 5]);
+struct AtomicCounters([AtomicU64; 6]);
 
 impl AtomicCounters {
     fn add(&self, c: &PhotonMapCounters) {
@@ -196,6 +198,7 @@ impl AtomicCounters {
             c.map_estimates,
             c.irradiance_lookups,
             c.caustic_estimates,
+            c.final_gathers,
         ];
         for (a, x) in self.0.iter().zip(v) {
             if x != 0 {
@@ -212,6 +215,7 @@ impl AtomicCounters {
             map_estimates: v(2),
             irradiance_lookups: v(3),
             caustic_estimates: v(4),
+            final_gathers: v(5),
         }
     }
 
@@ -307,6 +311,7 @@ impl Strategy for PhotonMapStrategy {
             ("map_estimates", w.map_estimates as f64),
             ("irradiance_lookups", w.irradiance_lookups as f64),
             ("caustic_estimates", w.caustic_estimates as f64),
+            ("final_gathers", w.final_gathers as f64),
         ];
         if let Some(m) = &self.maps {
             let irradiance = m.irradiance.as_ref();
@@ -490,6 +495,7 @@ impl Renderer<'_> {
             self.params.secondary_gather_rays
         } as usize;
         let mut indirect = Vec3::ZERO;
+        c.final_gathers += u64::from(primary && g > 0);
         if g > 0 {
             for u in latin_hypercube(g, rng) {
                 let u_lobe = rng.uniform();
