@@ -479,6 +479,7 @@ kind = "path"
 kind = "photon_map"
 photons = 2000
 gather_rays = 4
+spp = [2]
 "#;
     std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
     let mut runs = Vec::new();
@@ -488,7 +489,14 @@ gather_rays = 4
         runs.push(root.join(String::from_utf8_lossy(&o.stdout).trim()));
     }
     let rows = photon_bench::report::rows::read_csv(&runs[0].join("metrics.csv")).unwrap();
-    assert_eq!(rows.len(), 2 * 3);
+    // photon_map renders its own budgets only: 2 spp and the time budget.
+    assert_eq!(rows.len(), 3 + 2);
+    let budgets: Vec<(&str, f64)> = rows
+        .iter()
+        .filter(|r| r.kind == "photon_map")
+        .map(|r| (r.budget.as_str(), r.budget_value))
+        .collect();
+    assert_eq!(budgets, [("spp", 2.0), ("seconds", 0.05)]);
     use photon_bench::report::rows::counter;
     let pixels = 16.0 * 12.0;
     for r in &rows {

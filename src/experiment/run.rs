@@ -101,7 +101,7 @@ pub fn run_shard(exp: &Experiment, force: bool, shard: Shard) -> Result<(usize, 
             continue;
         }
         let params = param_string(spec)?;
-        let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+        let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
         if !force && load_cell(&cells_dir.join(&hash)).is_some() {
             cached += 1;
         } else {
@@ -122,7 +122,7 @@ pub fn merge(exp: &Experiment, imports: &[PathBuf]) -> Result<Outcome> {
     let mut missing = 0;
     for (p, spec, seed) in plan(exp, &prepared) {
         let params = param_string(spec)?;
-        let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+        let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
         let cell = cells_dir.join(&hash);
         if load_cell(&cell).is_some() {
             continue;
@@ -223,18 +223,11 @@ fn binary_id() -> &'static str {
 }
 
 /// The content hash of a cell: the strategy's label, kind and every parameter (defaults
-/// included), the budgets, the seed, the scene's name and hash, the reference's hash and the
+/// included), its budgets (its own or the experiment's), the seed, the scene's name and hash, the reference's hash and the
 /// binary ([`binary_id`]). The experiment's name, description and other cells do not enter.
-pub fn cell_hash(
-    exp: &Experiment,
-    scene: &Scene,
-    reference: &Reference,
-    spec: &StrategySpec,
-    params: &str,
-    seed: u64,
-) -> String {
-    let spp = format!("{:?}", exp.spp);
-    let seconds = format!("{:?}", exp.seconds.iter().map(|s| s.to_bits()).collect::<Vec<_>>());
+pub fn cell_hash(scene: &Scene, reference: &Reference, spec: &StrategySpec, params: &str, seed: u64) -> String {
+    let spp = format!("{:?}", spec.spp);
+    let seconds = format!("{:?}", spec.seconds.iter().map(|s| s.to_bits()).collect::<Vec<_>>());
     crate::util::content_hash(&[
         b"photon-bench cell v1",
         spec.label.as_bytes(),
@@ -348,7 +341,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
             let params = param_string(spec)?;
             for &seed in &exp.seeds {
                 bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
-                let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+                let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
                 let cell = cells_dir.join(&hash);
                 let mut cell_rows = match load_cell(&cell).filter(|_| !force) {
                     Some(r) => {
@@ -479,7 +472,7 @@ impl Checkpoint<'_> {
     }
 }
 
-/// Renders one cell (scene × strategy × seed) through every budget and writes its images into
+/// Renders one cell (scene × strategy × seed) through the strategy's budgets and writes its images into
 /// `dir/images/`; returns its rows, equal-samples checkpoints first.
 ///
 /// Equal samples: one progressive render through the `spp` checkpoints. Equal time: the same
@@ -552,7 +545,7 @@ fn render_cell(
     let mut film = Film::new(width, height);
     let (mut render_s, mut done) = (0.0, 0u32);
     let film_start = strategy.counters();
-    for &spp in &exp.spp {
+    for &spp in &spec.spp {
         let t = Instant::now();
         strategy.render_pass(&p.scene, seed, done..spp, &mut film);
         render_s += t.elapsed().as_secs_f64();
@@ -574,7 +567,7 @@ fn render_cell(
     let mut film = Film::new(width, height);
     let (mut render_s, mut done, mut pass) = (0.0f64, 0u32, 1u32);
     let film_start = strategy.counters();
-    for &budget in &exp.seconds {
+    for &budget in &spec.seconds {
         while done == 0 || (prep_s + render_s < budget && done < MAX_SPP) {
             let left_s = budget - prep_s - render_s;
             let per_sample_s = if done > 0 { render_s / done as f64 } else { 0.0 };
