@@ -235,7 +235,7 @@ fn measure_gather(scene: &Scene, seed: u64) -> f64 {
     let mut film = crate::film::Film::new(scene.camera.width, scene.camera.height);
     let start = Instant::now();
     strategy.render_pass(scene, seed, 0..1, &mut film);
-    strategy.counters().gather_rays as f64 / start.elapsed().as_secs_f64()
+    strategy.work().gather_rays as f64 / start.elapsed().as_secs_f64()
 }
 
 /// Metropolis steps per second of each proposal alone (UP with a chain that is UP alone,

@@ -459,3 +459,172 @@ fn shards_on_two_machines_merge_into_the_results_of_one_run() {
         &["--shard"],
     );
 }
+
+#[test]
+fn strategy_counters_are_recorded_per_checkpoint_and_kept_by_the_cell_cache() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let experiment = r#"
+scenes = ["../scenes/tiny.toml"]
+spp = [1, 2]
+seconds = [0.05]
+[[strategy]]
+kind = "path"
+[[strategy]]
+kind = "photon_map"
+photons = 2000
+gather_rays = 4
+spp = [2]
+"#;
+    std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
+    let mut runs = Vec::new();
+    for _ in 0..2 {
+        let o = bench(root, &["run", "experiments/tiny.toml"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        runs.push(root.join(String::from_utf8_lossy(&o.stdout).trim()));
+    }
+    let rows = photon_bench::report::rows::read_csv(&runs[0].join("metrics.csv")).unwrap();
+    // photon_map renders its own budgets only: 2 spp and the time budget.
+    assert_eq!(rows.len(), 3 + 2);
+    let budgets: Vec<(&str, f64)> = rows
+        .iter()
+        .filter(|r| r.kind == "photon_map")
+        .map(|r| (r.budget.as_str(), r.budget_value))
+        .collect();
+    assert_eq!(budgets, [("spp", 2.0), ("seconds", 0.05)]);
+    use photon_bench::report::rows::counter;
+    let pixels = 16.0 * 12.0;
+    for r in &rows {
+        if r.kind == "path" {
+            assert_eq!(r.counters, "", "path counts nothing");
+            continue;
+        }
+        // Nearly every camera ray of the empty box ends on a wall: up to spp × pixels × 4
+        // primary gather rays, plus 12 per secondary gather. The equal-time row counts its
+        // own film only (not the equal-samples film rendered before it).
+        let rays = counter(r, "gather_rays").unwrap();
+        let most = r.spp as f64 * pixels * 4.0 + 12.0 * counter(r, "secondary_gathers").unwrap();
+        assert!(
+            rays <= most && rays > 0.97 * most,
+            "{} {}: {} of at most {most}",
+            r.budget,
+            r.spp,
+            r.counters
+        );
+        assert!(counter(r, "global_photons").unwrap() > 2000.0, "{}", r.counters);
+        assert_eq!(counter(r, "bytes_per_photon"), Some(24.0));
+    }
+    // The second run takes both cells from the cache, counters included.
+    let again = photon_bench::report::rows::read_csv(&runs[1].join("metrics.csv")).unwrap();
+    let counters =
+        |rows: &[photon_bench::report::rows::Row]| -> Vec<String> { rows.iter().map(|r| r.counters.clone()).collect() };
+    assert_eq!(counters(&rows), counters(&again));
+    let summary = std::fs::read_to_string(runs[0].join("summary.md")).unwrap();
+    assert!(summary.contains("### counters"), "{summary}");
+    assert!(summary.contains("| photon_map | 2 spp | 1 |"), "{summary}");
+    let html = std::fs::read_to_string(runs[0].join("index.html")).unwrap();
+    assert!(html.contains("<th>gather_rays</th>"));
+}
+
+#[test]
+fn christensen_comparison_is_computed_from_the_rows_and_images_of_a_run() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "4"])
+            .status
+            .success()
+    );
+    let experiment = r#"
+scenes = ["../scenes/tiny.toml"]
+spp = [1, 2]
+seeds = 2
+[[strategy]]
+kind = "photon_map"
+label = "direct"
+photons = 3000
+gather_rays = 4
+[[strategy]]
+kind = "photon_map"
+label = "pre4"
+photons = 3000
+gather_rays = 4
+precomputed_irradiance = { every = 4 }
+[[strategy]]
+kind = "photon_map"
+label = "other"
+photons = 3000
+gather_rays = 8
+precomputed_irradiance = { every = 4 }
+"#;
+    std::fs::write(root.join("experiments/tiny.toml"), experiment).unwrap();
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let run = root.join(String::from_utf8_lossy(&o.stdout).trim());
+    let rows = photon_bench::report::rows::read_csv(&run.join("metrics.csv")).unwrap();
+    let mut csv = csv::Reader::from_path(run.join("final_gather.csv")).unwrap();
+    let header = csv.headers().unwrap().clone();
+    let records: Vec<csv::StringRecord> = csv.records().map(|r| r.unwrap()).collect();
+    // `pre4` against `direct` at 2 checkpoints × 2 seeds; `other` has no direct-lookup twin.
+    assert_eq!(records.len(), 4);
+    let field = |rec: &csv::StringRecord, name: &str| -> String {
+        rec[header.iter().position(|h| h == name).unwrap()].to_string()
+    };
+    let num = |rec: &csv::StringRecord, name: &str| -> f64 { field(rec, name).parse().unwrap() };
+    for rec in &records {
+        assert_eq!(
+            (field(rec, "variant"), field(rec, "direct")),
+            ("pre4".into(), "direct".into())
+        );
+        let at = |label: &str| {
+            rows.iter()
+                .find(|r| {
+                    r.strategy == label
+                        && r.seed.to_string() == field(rec, "seed")
+                        && r.spp.to_string() == field(rec, "spp")
+                })
+                .unwrap()
+        };
+        let (d, v) = (at("direct"), at("pre4"));
+        assert_eq!(num(rec, "gather_s_direct"), d.render_s);
+        assert_eq!(num(rec, "speedup"), d.render_s / v.render_s);
+        let pre: f64 = v
+            .phases
+            .split(';')
+            .find_map(|p| p.strip_prefix("irradiance_precompute="))
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert_eq!(num(rec, "precompute_s"), pre);
+        if d.render_s > v.render_s {
+            assert_eq!(
+                num(rec, "precompute_pct_of_saved"),
+                100.0 * pre / (d.render_s - v.render_s)
+            );
+        }
+        let image = |r: &photon_bench::report::rows::Row| photon_bench::film::read_exr(&run.join(&r.image)).unwrap();
+        let between = photon_bench::metrics::compare(&image(v), &image(d)).unwrap().mse;
+        assert_eq!(num(rec, "mse_between"), between);
+        assert!(between > 0.0);
+        assert_eq!((num(rec, "mse_direct"), num(rec, "mse_variant")), (d.mse, v.mse));
+        assert_eq!(num(rec, "bytes_per_photon"), 24.0);
+        assert!(num(rec, "global_photons") > 3000.0);
+        assert!(num(rec, "irradiance_lookups") > 0.0);
+        // The variant's density estimates include one per precomputed photon.
+        assert!(num(rec, "estimates_variant") >= num(rec, "global_photons") / 4.0);
+        assert!(num(rec, "map_bytes_variant") > num(rec, "map_bytes_direct"));
+    }
+    let summary = std::fs::read_to_string(run.join("summary.md")).unwrap();
+    assert!(summary.contains("### final gathering"), "{summary}");
+    assert!(summary.contains("| pre4 | direct | 2 | 2 |"), "{summary}");
+    assert!(
+        std::fs::read_to_string(run.join("index.html"))
+            .unwrap()
+            .contains("final_gather.csv")
+    );
+}

@@ -27,6 +27,13 @@
 //! `<label>[key=value,…]` with its swept values, e.g. `path[max_depth=4]`; a strategy without
 //! list-valued parameters keeps its plain label.
 //!
+//! ## A strategy's own budgets
+//!
+//! A `[[strategy]]` table may restrict itself to some of the experiment's checkpoints with its
+//! own `spp = [...]` and `seconds = [...]` (subsets of the experiment's lists; `[]` for none of
+//! that kind), e.g. a slow strategy rendered at the small spp checkpoints and the time budgets
+//! only. These two keys are budgets, never swept, and no strategy has parameters of those names.
+//!
 //! A parameter whose value is itself a list (say a future `grid = [4, 16]`) is written as a
 //! list of lists: `grid = [[4, 16]]` is the single value `[4, 16]`, and
 //! `grid = [[4, 16], [8, 8]]` sweeps over two values. A list whose elements are all lists is
@@ -80,6 +87,11 @@ pub struct StrategySpec {
     pub params: toml::Table,
     /// The swept parameters of this combination with their values, by name.
     pub swept: Vec<(String, String)>,
+    /// This strategy's equal-samples checkpoints: the experiment's `spp`, or the subset its
+    /// table names (`spp = [1, 4]`; `[]` for none).
+    pub spp: Vec<u32>,
+    /// This strategy's time budgets: the experiment's `seconds`, or the subset its table names.
+    pub seconds: Vec<f64>,
 }
 
 impl StrategySpec {
@@ -164,8 +176,12 @@ impl Experiment {
             return Err(at("strategy: expected at least one [[strategy]] table".into()));
         }
         let mut strategies: Vec<StrategySpec> = Vec::new();
-        for (i, table) in raw.strategies.into_iter().enumerate() {
-            for spec in strategy_specs(table).map_err(|e| at(format!("strategy[{i}]{e}")))? {
+        for (i, mut table) in raw.strategies.into_iter().enumerate() {
+            let (own_spp, own_seconds) =
+                strategy_budgets(&mut table, &spp, &seconds).map_err(|e| at(format!("strategy[{i}]{e}")))?;
+            for mut spec in strategy_specs(table).map_err(|e| at(format!("strategy[{i}]{e}")))? {
+                spec.spp = own_spp.clone();
+                spec.seconds = own_seconds.clone();
                 let clash = strategies
                     .iter()
                     .find(|s| s.label == spec.label || s.file_stem() == spec.file_stem());
@@ -221,6 +237,49 @@ pub fn file_stem(label: &str) -> String {
         }
     }
     out.trim_end_matches('-').to_string()
+}
+
+/// Takes a strategy table's own budgets (`spp`, `seconds`) out of it: each, when given, must
+/// be a subset of the experiment's list (so that strategies meet at common checkpoints) and
+/// replaces it for this strategy; together they must leave at least one checkpoint. Errors
+/// start with the field path after `strategy[i]`.
+fn strategy_budgets(table: &mut toml::Table, spp: &[u32], seconds: &[f64]) -> Result<(Vec<u32>, Vec<f64>), String> {
+    fn subset<T: Copy + PartialEq + std::fmt::Debug>(
+        key: &str,
+        value: Option<toml::Value>,
+        all: &[T],
+        read: impl Fn(&toml::Value) -> Option<T>,
+    ) -> Result<Vec<T>, String> {
+        let Some(value) = value else {
+            return Ok(all.to_vec());
+        };
+        let expected = || format!(".{key}: expected a list of the experiment's {key} {all:?}, got {value}");
+        let toml::Value::Array(items) = &value else {
+            return Err(expected());
+        };
+        let mut own = Vec::new();
+        for item in items {
+            let v = read(item).ok_or_else(expected)?;
+            if !all.contains(&v) {
+                return Err(format!(
+                    ".{key}: {item} is not among the experiment's {key} {all:?}; a strategy's own budgets pick from those"
+                ));
+            }
+            own.push(v);
+        }
+        // The experiment's order (ascending), without repeats.
+        Ok(all.iter().copied().filter(|v| own.contains(v)).collect())
+    }
+    let own_spp = subset("spp", table.remove("spp"), spp, |v| {
+        v.as_integer().and_then(|i| u32::try_from(i).ok())
+    })?;
+    let own_seconds = subset("seconds", table.remove("seconds"), seconds, |v| {
+        v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
+    })?;
+    if own_spp.is_empty() && own_seconds.is_empty() {
+        return Err(": spp, seconds: the strategy's own budgets leave no checkpoint".into());
+    }
+    Ok((own_spp, own_seconds))
 }
 
 /// Largest number of combinations one `[[strategy]]` table may expand into.
@@ -329,6 +388,8 @@ fn strategy_spec(mut table: toml::Table) -> Result<StrategySpec, String> {
         kind,
         params: table,
         swept: Vec::new(),
+        spp: Vec::new(),
+        seconds: Vec::new(),
     })
 }
 
@@ -375,6 +436,48 @@ mod tests {
         assert_eq!(e.seeds, vec![0, 1]);
         assert_eq!(e.strategies[0].label, "path");
         assert_eq!(e.scenes[0], Path::new("scenes/a.toml"));
+    }
+
+    #[test]
+    fn a_strategy_may_take_a_subset_of_the_budgets() {
+        let text = "scenes = [\"../scenes/a.toml\"]\nspp = [1, 4, 16]\nseconds = [1, 3]\n\
+            [[strategy]]\nkind = \"path\"\n\
+            [[strategy]]\nkind = \"path\"\nlabel = \"slow\"\nspp = [4, 1]\nseconds = [3]\nmax_depth = [2, 3]\n\
+            [[strategy]]\nkind = \"path\"\nlabel = \"timed\"\nspp = []\n";
+        let e = parse(text).unwrap();
+        assert_eq!(e.strategies.len(), 4, "spp and seconds are budgets, never swept");
+        let by = |label: &str| e.strategies.iter().find(|s| s.label == label).unwrap();
+        assert_eq!(
+            (by("path").spp.as_slice(), by("path").seconds.as_slice()),
+            (&[1, 4, 16][..], &[1.0, 3.0][..])
+        );
+        for label in ["slow[max_depth=2]", "slow[max_depth=3]"] {
+            assert_eq!(
+                (by(label).spp.as_slice(), by(label).seconds.as_slice()),
+                (&[1, 4][..], &[3.0][..])
+            );
+            assert!(!by(label).params.contains_key("spp") && !by(label).params.contains_key("seconds"));
+        }
+        assert_eq!((by("timed").spp.len(), by("timed").seconds.len()), (0, 2));
+        for (own, message) in [
+            (
+                "spp = [2]",
+                "strategy[1].spp: 2 is not among the experiment's spp [1, 4, 16]",
+            ),
+            ("seconds = [0.5]", "strategy[1].seconds: 0.5 is not among"),
+            ("spp = 4", "strategy[1].spp: expected a list"),
+            ("spp = [\"4\"]", "strategy[1].spp: expected a list"),
+            (
+                "spp = []\nseconds = []",
+                "strategy[1]: spp, seconds: the strategy's own budgets leave no checkpoint",
+            ),
+        ] {
+            let text = format!(
+                "scenes = [\"../scenes/a.toml\"]\nspp = [1, 4, 16]\nseconds = [1, 3]\n[[strategy]]\nkind = \"path\"\n[[strategy]]\nkind = \"path\"\nlabel = \"x\"\n{own}\n"
+            );
+            let err = parse(&text).unwrap_err().to_string();
+            assert!(err.contains(message), "{own}: {err}");
+        }
     }
 
     #[test]

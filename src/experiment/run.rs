@@ -19,7 +19,7 @@ use super::reference::{self, Reference};
 use crate::error::{Context, Result};
 use crate::film::{Film, image_strip, read_exr, write_error_png, write_exr, write_png};
 use crate::metrics;
-use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, read_csv, write_csv};
+use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, format_counters, read_csv, write_csv};
 use crate::scene::{Scene, load_scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -101,7 +101,7 @@ pub fn run_shard(exp: &Experiment, force: bool, shard: Shard) -> Result<(usize, 
             continue;
         }
         let params = param_string(spec)?;
-        let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+        let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
         if !force && load_cell(&cells_dir.join(&hash)).is_some() {
             cached += 1;
         } else {
@@ -122,7 +122,7 @@ pub fn merge(exp: &Experiment, imports: &[PathBuf]) -> Result<Outcome> {
     let mut missing = 0;
     for (p, spec, seed) in plan(exp, &prepared) {
         let params = param_string(spec)?;
-        let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+        let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
         let cell = cells_dir.join(&hash);
         if load_cell(&cell).is_some() {
             continue;
@@ -223,18 +223,11 @@ fn binary_id() -> &'static str {
 }
 
 /// The content hash of a cell: the strategy's label, kind and every parameter (defaults
-/// included), the budgets, the seed, the scene's name and hash, the reference's hash and the
+/// included), its budgets (its own or the experiment's), the seed, the scene's name and hash, the reference's hash and the
 /// binary ([`binary_id`]). The experiment's name, description and other cells do not enter.
-pub fn cell_hash(
-    exp: &Experiment,
-    scene: &Scene,
-    reference: &Reference,
-    spec: &StrategySpec,
-    params: &str,
-    seed: u64,
-) -> String {
-    let spp = format!("{:?}", exp.spp);
-    let seconds = format!("{:?}", exp.seconds.iter().map(|s| s.to_bits()).collect::<Vec<_>>());
+pub fn cell_hash(scene: &Scene, reference: &Reference, spec: &StrategySpec, params: &str, seed: u64) -> String {
+    let spp = format!("{:?}", spec.spp);
+    let seconds = format!("{:?}", spec.seconds.iter().map(|s| s.to_bits()).collect::<Vec<_>>());
     crate::util::content_hash(&[
         b"photon-bench cell v1",
         spec.label.as_bytes(),
@@ -348,7 +341,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
             let params = param_string(spec)?;
             for &seed in &exp.seeds {
                 bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
-                let hash = cell_hash(exp, &p.scene, &p.reference, spec, &params, seed);
+                let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
                 let cell = cells_dir.join(&hash);
                 let mut cell_rows = match load_cell(&cell).filter(|_| !force) {
                     Some(r) => {
@@ -374,8 +367,10 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
     write_csv(&rows, &dir.join("metrics.csv"))?;
     write_strips(exp, prepared, &rows, dir)?;
     crate::report::write_plots(&rows, dir)?;
-    crate::report::write_summary(&exp.name, &exp.description, &rows, dir)?;
-    crate::report::html::write_index(&rows, dir)?;
+    let gathers = crate::report::final_gather::comparisons(&rows, dir)?;
+    crate::report::final_gather::write_csv(&gathers, dir)?;
+    crate::report::write_summary(&exp.name, &exp.description, &rows, &gathers, dir)?;
+    crate::report::html::write_index(&rows, &gathers, dir)?;
     Ok((cached, rendered))
 }
 
@@ -443,7 +438,7 @@ struct Checkpoint<'a> {
 }
 
 impl Checkpoint<'_> {
-    fn record(&self, film: &Film, spp: u32, prep_s: f64, render_s: f64) -> Result<Row> {
+    fn record(&self, film: &Film, spp: u32, prep_s: f64, render_s: f64, counters: String) -> Result<Row> {
         let image = film.image();
         let m = metrics::compare(&image, &self.reference.image).map_err(|e| e.context(self.scene))?;
         let exr = PathBuf::from("images").join(format!("{}.exr", self.stem));
@@ -471,12 +466,13 @@ impl Checkpoint<'_> {
             mean_g: mean.y as f64,
             mean_b: mean.z as f64,
             image: exr.display().to_string(),
+            counters,
             ..self.template.clone()
         })
     }
 }
 
-/// Renders one cell (scene × strategy × seed) through every budget and writes its images into
+/// Renders one cell (scene × strategy × seed) through the strategy's budgets and writes its images into
 /// `dir/images/`; returns its rows, equal-samples checkpoints first.
 ///
 /// Equal samples: one progressive render through the `spp` checkpoints. Equal time: the same
@@ -538,7 +534,9 @@ fn render_cell(
         mean_g: 0.0,
         mean_b: 0.0,
         image: String::new(),
+        counters: String::new(),
     };
+    let counters = CounterClock::new(strategy.counters());
     let (width, height) = (p.scene.camera.width, p.scene.camera.height);
     let stem = format!("{}_{}_seed{seed}", p.scene.name, spec.file_stem());
     let mut rows = Vec::new();
@@ -546,7 +544,8 @@ fn render_cell(
     // Equal samples: checkpoints of one progressive render.
     let mut film = Film::new(width, height);
     let (mut render_s, mut done) = (0.0, 0u32);
-    for &spp in &exp.spp {
+    let film_start = strategy.counters();
+    for &spp in &spec.spp {
         let t = Instant::now();
         strategy.render_pass(&p.scene, seed, done..spp, &mut film);
         render_s += t.elapsed().as_secs_f64();
@@ -559,14 +558,16 @@ fn render_cell(
             reference: &p.reference,
             scene: &p.scene.name,
         };
-        rows.push(checkpoint.record(&film, spp, prep_s, render_s)?);
+        let counted = counters.at(&film_start, &strategy.counters());
+        rows.push(checkpoint.record(&film, spp, prep_s, render_s, counted)?);
     }
 
     // Equal time: doubling passes until each budget.
     template.budget = BUDGET_SECONDS.to_string();
     let mut film = Film::new(width, height);
     let (mut render_s, mut done, mut pass) = (0.0f64, 0u32, 1u32);
-    for &budget in &exp.seconds {
+    let film_start = strategy.counters();
+    for &budget in &spec.seconds {
         while done == 0 || (prep_s + render_s < budget && done < MAX_SPP) {
             let left_s = budget - prep_s - render_s;
             let per_sample_s = if done > 0 { render_s / done as f64 } else { 0.0 };
@@ -590,14 +591,70 @@ fn render_cell(
             reference: &p.reference,
             scene: &p.scene.name,
         };
-        rows.push(checkpoint.record(&film, done, prep_s, render_s)?);
+        let counted = counters.at(&film_start, &strategy.counters());
+        rows.push(checkpoint.record(&film, done, prep_s, render_s, counted)?);
     }
     Ok(rows)
 }
 
+/// Attributes a strategy's counters to the render of each film. Counters are cumulative
+/// since `prepare` ([`crate::strategy::Strategy::counters`]), and the equal-time film is
+/// rendered after the equal-samples one by the same prepared strategy, so a checkpoint records
+/// `now − at the film's start + after prepare`: work counted while rendering (zero after
+/// prepare) counts only this film's passes, work done by `prepare` is kept (it belongs to every
+/// film), and quantities that rendering leaves unchanged (photons stored, bytes) pass through.
+/// A counter that is neither (a running ratio) would be misreported: count its numerator and
+/// denominator instead.
+struct CounterClock {
+    after_prepare: Vec<(String, f64)>,
+}
+
+impl CounterClock {
+    fn new(after_prepare: Vec<(String, f64)>) -> Self {
+        Self { after_prepare }
+    }
+
+    /// The `counters` column of a checkpoint of the film that started at `film_start`.
+    fn at(&self, film_start: &[(String, f64)], now: &[(String, f64)]) -> String {
+        let value = |list: &[(String, f64)], name: &str| list.iter().find(|(n, _)| n == name).map_or(0.0, |(_, v)| *v);
+        let counted: Vec<(String, f64)> = now
+            .iter()
+            .map(|(name, v)| {
+                let start = value(film_start, name);
+                let prepared = value(&self.after_prepare, name);
+                (name.clone(), v - start + prepared)
+            })
+            .collect();
+        format_counters(&counted)
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::utc_stamp;
+    use super::{CounterClock, utc_stamp};
+
+    #[test]
+    fn counters_of_the_second_film_count_its_own_work() {
+        let owned = |v: &[(&str, f64)]| v.iter().map(|(n, x)| (n.to_string(), *x)).collect::<Vec<_>>();
+        // After prepare: 10 rays traced by prepare, 200 photons stored.
+        let clock = CounterClock::new(owned(&[("rays", 10.0), ("photons", 200.0)]));
+        // The first film starts right after prepare and renders 50 rays.
+        let first = owned(&[("rays", 10.0), ("photons", 200.0)]);
+        assert_eq!(
+            clock.at(&first, &owned(&[("rays", 60.0), ("photons", 200.0)])),
+            "rays=60;photons=200"
+        );
+        // The second film starts at 60 and renders 30 more: prepare's 10 + its own 30.
+        let second = owned(&[("rays", 60.0), ("photons", 200.0)]);
+        assert_eq!(
+            clock.at(&second, &owned(&[("rays", 90.0), ("photons", 200.0)])),
+            "rays=40;photons=200"
+        );
+        // A counter the strategy starts reporting later is taken as counted from zero.
+        assert_eq!(clock.at(&second, &owned(&[("late", 5.0)])), "late=5");
+        // A film that did no work records prepare's share only.
+        assert_eq!(clock.at(&second, &second), "rays=10;photons=200");
+    }
 
     #[test]
     fn utc_stamp_matches_known_dates() {

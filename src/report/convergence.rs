@@ -200,7 +200,15 @@ fn num(v: f64) -> String {
 
 /// `summary.md`: per scene and metric, every strategy at every checkpoint as mean, standard
 /// deviation and [`CONFIDENCE`] Student-t interval over seeds, and links to the plots.
-pub fn write_summary(name: &str, description: &str, rows: &[Row], dir: &Path) -> Result<()> {
+/// `gathers` adds Christensen's comparison of final-gathering variants
+/// ([`super::final_gather`]) to the scenes that have one.
+pub fn write_summary(
+    name: &str,
+    description: &str,
+    rows: &[Row],
+    gathers: &[super::final_gather::Comparison],
+    dir: &Path,
+) -> Result<()> {
     let mut md = String::new();
     let _ = writeln!(md, "# {name}\n");
     if !description.is_empty() {
@@ -249,6 +257,14 @@ pub fn write_summary(name: &str, description: &str, rows: &[Row], dir: &Path) ->
                 );
             }
             let _ = writeln!(md);
+        }
+        let _ = write!(md, "{}", super::final_gather::markdown(gathers, scene));
+        if let Some(table) = super::counters::table(rows, scene) {
+            let _ = writeln!(
+                md,
+                "### counters\n\nWhat each strategy counted (mean over seeds), at its largest checkpoint of each budget kind.\n"
+            );
+            let _ = writeln!(md, "{}", table.markdown());
         }
         let has_seconds = groups.iter().any(|g| g.scene == scene && g.budget == BUDGET_SECONDS);
         let has_spp = groups.iter().any(|g| g.scene == scene && g.budget == BUDGET_SPP);

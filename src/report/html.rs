@@ -35,7 +35,8 @@ td{text-align:right}td:first-child{text-align:left}";
 
 /// Writes `index.html` into the run directory `dir`. Files that a run did not write (a plot
 /// without data, a strip without images) are left out of the page.
-pub fn write_index(rows: &[Row], dir: &Path) -> Result<()> {
+/// `gathers`: Christensen's comparison of final-gathering variants, shown per scene.
+pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], dir: &Path) -> Result<()> {
     let mut h = String::new();
     let first = rows.first();
     let name = first.map_or("run", |r| r.experiment.as_str());
@@ -116,6 +117,51 @@ pub fn write_index(rows: &[Row], dir: &Path) -> Result<()> {
             );
         }
         let _ = writeln!(h, "</table>");
+
+        let tables = super::final_gather::tables(gathers, scene);
+        if !tables.is_empty() {
+            let _ = writeln!(
+                h,
+                "<h3>Final gathering: accelerated vs direct lookups</h3>\n<p>Christensen 1999's comparison, mean over seeds (every seed: <a href=\"final_gather.csv\">final_gather.csv</a>).</p>"
+            );
+        }
+        for (header, lines) in tables {
+            let _ = write!(h, "<table><tr>");
+            for name in header {
+                let _ = write!(h, "<th>{}</th>", esc(name));
+            }
+            let _ = writeln!(h, "</tr>");
+            for line in lines {
+                let cells: String = line.iter().map(|c| format!("<td>{}</td>", esc(c))).collect();
+                let _ = writeln!(h, "<tr>{cells}</tr>");
+            }
+            let _ = writeln!(h, "</table><br>");
+        }
+
+        if let Some(table) = super::counters::table(rows, scene) {
+            let _ = write!(
+                h,
+                "<h3>Counters</h3>\n<p>What each strategy counted (mean over seeds), at its largest checkpoint of each budget kind.</p>\n<table><tr><th>strategy</th><th>budget</th><th>n</th>"
+            );
+            for name in &table.names {
+                let _ = write!(h, "<th>{}</th>", esc(name));
+            }
+            let _ = writeln!(h, "</tr>");
+            for l in &table.lines {
+                let _ = write!(
+                    h,
+                    "<tr><td>{}</td><td>{}</td><td>{}</td>",
+                    esc(&l.strategy),
+                    esc(&l.budget),
+                    l.seeds
+                );
+                for v in &l.values {
+                    let _ = write!(h, "<td>{}</td>", v.map_or("–".into(), super::counters::show));
+                }
+                let _ = writeln!(h, "</tr>");
+            }
+            let _ = writeln!(h, "</table>");
+        }
 
         let _ = writeln!(h, "<h3>Images</h3>");
         for at in &largest {

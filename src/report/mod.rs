@@ -4,6 +4,8 @@
 pub mod bars;
 pub mod compare;
 pub mod convergence;
+pub mod counters;
+pub mod final_gather;
 pub mod html;
 pub mod plot;
 pub mod rows;

@@ -55,6 +55,11 @@ pub struct Row {
     pub mean_b: f64,
     /// EXR image of this checkpoint, relative to the run directory.
     pub image: String,
+    /// What the strategy counted ([`crate::strategy::Strategy::counters`]) as `name=value`,
+    /// `;`-separated; empty when it counts nothing. The last column, absent from files written
+    /// before it existed (they read as empty).
+    #[serde(default)]
+    pub counters: String,
 }
 
 /// `budget` of a checkpoint of an equal-samples render (`spp = [...]`).
@@ -150,6 +155,36 @@ pub fn budget_label(budget: &str, value: f64) -> String {
     }
 }
 
+/// Counters as the `counters` column writes them: `name=value;…`, values as plain numbers
+/// (Rust's shortest round-trip form, so they read back bit for bit).
+pub fn format_counters(counters: &[(String, f64)]) -> String {
+    counters
+        .iter()
+        .map(|(name, value)| format!("{name}={value}"))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// The `counters` column of a row as (name, value) pairs, in their order; malformed entries
+/// (not `name=number`) are skipped.
+pub fn parse_counters(text: &str) -> Vec<(&str, f64)> {
+    text.split(';')
+        .filter_map(|entry| {
+            let (name, value) = entry.split_once('=')?;
+            Some((name.trim(), value.trim().parse().ok()?))
+        })
+        .filter(|(name, _)| !name.is_empty())
+        .collect()
+}
+
+/// One counter of a row, if it recorded it.
+pub fn counter(row: &Row, name: &str) -> Option<f64> {
+    parse_counters(&row.counters)
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, v)| v)
+}
+
 /// Rows grouped by checkpoint, in first-seen order.
 pub fn group(rows: &[Row]) -> Vec<Group<'_>> {
     let mut out: Vec<Group> = Vec::new();
@@ -203,4 +238,31 @@ pub fn write_csv(rows: &[Row], path: &Path) -> Result<()> {
 pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
     let mut r = csv::Reader::from_path(path).context(path.display())?;
     r.deserialize().map(|row| row.context(path.display())).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counters_round_trip_bit_for_bit() {
+        let c = vec![
+            ("gather_rays".to_string(), 8_912_896.0),
+            ("bytes_per_photon".to_string(), 24.0),
+            ("ratio".to_string(), 0.1 + 0.2),
+        ];
+        let text = format_counters(&c);
+        assert_eq!(
+            text,
+            "gather_rays=8912896;bytes_per_photon=24;ratio=0.30000000000000004"
+        );
+        let back = parse_counters(&text);
+        assert_eq!(back.len(), 3);
+        for ((n, v), (m, w)) in c.iter().zip(&back) {
+            assert_eq!(n, m);
+            assert_eq!(v.to_bits(), w.to_bits());
+        }
+        assert!(parse_counters("").is_empty());
+        assert_eq!(parse_counters("a=1;junk;b=x;=3;c=2"), vec![("a", 1.0), ("c", 2.0)]);
+    }
 }

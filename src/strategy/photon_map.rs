@@ -183,10 +183,12 @@ pub struct PhotonMapCounters {
     pub irradiance_lookups: u64,
     /// Caustic-map radiance estimates.
     pub caustic_estimates: u64,
+    /// Final gathers at camera-path hits (each of `gather_rays` rays).
+    pub final_gathers: u64,
 }
 
 #[derive(Default)]
-struct AtomicCounters([AtomicU64; 5]);
+struct AtomicCounters([AtomicU64; 6]);
 
 impl AtomicCounters {
     fn add(&self, c: &PhotonMapCounters) {
@@ -196,6 +198,7 @@ impl AtomicCounters {
             c.map_estimates,
             c.irradiance_lookups,
             c.caustic_estimates,
+            c.final_gathers,
         ];
         for (a, x) in self.0.iter().zip(v) {
             if x != 0 {
@@ -212,6 +215,7 @@ impl AtomicCounters {
             map_estimates: v(2),
             irradiance_lookups: v(3),
             caustic_estimates: v(4),
+            final_gathers: v(5),
         }
     }
 
@@ -259,7 +263,7 @@ impl PhotonMapStrategy {
     }
 
     /// Work counted by the renders since the last `prepare`.
-    pub fn counters(&self) -> PhotonMapCounters {
+    pub fn work(&self) -> PhotonMapCounters {
         self.counters.get()
     }
 
@@ -302,6 +306,36 @@ impl Strategy for PhotonMapStrategy {
             ("precomputed_every", every),
             ("precomputed_normal_dot", normal_dot),
         ]
+    }
+
+    /// Work since `prepare` ([`PhotonMapCounters`]), then what `prepare` built: photons in the
+    /// global, caustic and precomputed-irradiance maps, the bytes of one photon record, and the
+    /// bytes held by all maps (records and kd-tree axes; the irradiance map's records are
+    /// copies of every k-th global photon).
+    fn counters(&self) -> Vec<(String, f64)> {
+        let w = self.work();
+        let mut out: Vec<(&str, f64)> = vec![
+            ("gather_rays", w.gather_rays as f64),
+            ("secondary_gathers", w.secondary_gathers as f64),
+            ("map_estimates", w.map_estimates as f64),
+            ("irradiance_lookups", w.irradiance_lookups as f64),
+            ("caustic_estimates", w.caustic_estimates as f64),
+            ("final_gathers", w.final_gathers as f64),
+        ];
+        if let Some(m) = &self.maps {
+            let irradiance = m.irradiance.as_ref();
+            out.extend([
+                ("global_photons", m.global.len() as f64),
+                ("caustic_photons", m.caustic.len() as f64),
+                ("irradiance_photons", irradiance.map_or(0, |i| i.len()) as f64),
+                ("bytes_per_photon", Photon::BYTES as f64),
+                (
+                    "photon_map_bytes",
+                    (m.global.bytes() + m.caustic.bytes() + irradiance.map_or(0, |i| i.bytes())) as f64,
+                ),
+            ]);
+        }
+        out.into_iter().map(|(n, v)| (n.to_string(), v)).collect()
     }
 
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
@@ -486,6 +520,7 @@ impl Renderer<'_> {
             self.params.secondary_gather_rays
         } as usize;
         let mut indirect = Vec3::ZERO;
+        c.final_gathers += u64::from(primary && g > 0);
         if g > 0 {
             for u in latin_hypercube(g, rng) {
                 let u_lobe = rng.uniform();
