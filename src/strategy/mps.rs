@@ -123,8 +123,6 @@ pub struct Mps {
 struct Stats {
     b: BEstimate,
     tally: Tally,
-    global: usize,
-    caustic: usize,
     /// Total stored power (luminance) in each map.
     global_power: f64,
     caustic_power: f64,
@@ -239,8 +237,6 @@ impl Strategy for Mps {
         self.stats = Some(Stats {
             b,
             tally: sampled.tally,
-            global: sampled.global.len(),
-            caustic: sampled.caustic.len(),
             global_power: power(&sampled.global),
             caustic_power: power(&sampled.caustic),
             unseen: sampled.unseen,
@@ -260,13 +256,11 @@ impl Strategy for Mps {
             ("b_eye_std_error".to_string(), s.b.std_error),
             ("mutations".to_string(), self.params.mutations as f64),
             ("photons_unseen".to_string(), s.unseen as f64),
-            ("global_photons".to_string(), s.global as f64),
-            ("caustic_photons".to_string(), s.caustic as f64),
             ("global_power_y".to_string(), s.global_power),
             ("caustic_power_y".to_string(), s.caustic_power),
-            ("bytes_per_photon".to_string(), Photon::BYTES as f64),
         ];
         out.extend(s.tally.counters());
+        // The final gather's work and the maps' sizes (global_photons, caustic_photons, bytes).
         out.extend(Strategy::counters(&self.gather));
         out
     }
