@@ -443,10 +443,8 @@ impl Tally {
             out.push((format!("{}_accepted", p.name()), self.accepted[i] as f64));
             out.push((format!("{}_zero", p.name()), self.zero[i] as f64));
         }
-        let (proposed, accepted) = (self.proposed.iter().sum::<u64>(), self.accepted.iter().sum::<u64>());
-        if proposed > 0 {
-            out.push(("acceptance".to_string(), accepted as f64 / proposed as f64));
-        }
+        // Sums only (result rows difference counters between checkpoints): the acceptance
+        // rate is accepted / proposed.
         out
     }
 }

@@ -8,6 +8,7 @@
 //!   predicate" queries.
 //! - [`estimate`]: irradiance and radiance density estimates.
 //! - [`irradiance`]: irradiance precomputed at every k-th photon and its nearest-photon lookup.
+//! - [`irradiance_cache`]: Ward's irradiance cache (records, weights, interpolation).
 //!
 //! Typical use:
 //! ```no_run
@@ -24,6 +25,7 @@
 
 pub mod estimate;
 pub mod irradiance;
+pub mod irradiance_cache;
 pub mod kdtree;
 pub mod record;
 pub mod trace;

@@ -120,11 +120,13 @@ impl Strategy for Mlt {
         let Some(prep) = &self.prepared else { return };
         let mut progress = self.progress.lock().unwrap();
         if progress.states.is_empty() || progress.seed != seed || progress.next_sample > samples.start {
+            // Replays count as work done: the tally runs on since `prepare`.
+            let tally = progress.tally;
             *progress = Progress {
                 seed,
                 next_sample: 0,
                 states: prep.starts.clone(),
-                tally: Tally::default(),
+                tally,
             };
         }
         let pixels = scene.camera.pixel_count();

@@ -241,7 +241,7 @@ impl Strategy for Mps {
             caustic_power: power(&sampled.caustic),
             unseen: sampled.unseen,
         });
-        phases.extend(self.gather.build_maps(scene, sampled.global, sampled.caustic));
+        phases.extend(self.gather.build_maps(scene, sampled.global, sampled.caustic, seed));
         Ok(phases)
     }
 

@@ -46,6 +46,29 @@
 //!   irradiance at every k-th photon (default 4) and looks it up for Lambertian gather hits with
 //!   normal agreement n_p · n > d (default 0.9) [Christensen 1999]; absent means full density
 //!   estimates at every gather hit.
+//! - `irradiance_cache` (absent): `{ error = a, min_distance, max_distance, gather_rays }`
+//!   caches the indirect irradiance of Lambertian surfaces seen from the camera [Ward,
+//!   Rubinstein & Clear 1988] ([`crate::photon::irradiance_cache`]): a = `error` (default 0.2);
+//!   each record's harmonic mean distance R is clamped to [`min_distance`, `max_distance`]
+//!   (defaults 2 % and 50 % of the scene's bounding-box diagonal); a record gathers with
+//!   `gather_rays` rays (default 256: records are few, and a noisy record shows as a blotch
+//!   over its whole valid region). Absent means a final gather at every camera sample.
+//!
+//! **Decision: a deterministic pre-pass fills the irradiance cache.** Ward fills the cache
+//! lazily while rendering; filled by parallel threads in a timing-dependent order, the records
+//! (and so the image) would depend on the thread count. Instead `prepare` runs an overture
+//! (phase `irradiance_cache`) over the pixel centres in rounds, coarse to fine: the pixels of a
+//! 16-pixel grid, then those of the 8-, 4-, 2- and 1-pixel grids not already on a coarser one,
+//! each grid in three sub-rounds (odd columns, odd rows, both) so that neighbours of one round
+//! are at least two grid steps apart. In a round, every pixel's camera ray (pixel centre, its
+//! own random stream through delta surfaces) that reaches a Lambertian surface where the cache
+//! (as it was at the round's start) has no valid record computes a record, in parallel; the new
+//! records are added in pixel order and the index rebuilt. The records therefore depend on the
+//! seed only. Rendering then reads the cache: at a camera path's first Lambertian hit, ρ/π times
+//! the interpolated irradiance replaces the final gather; where no record is valid (a sub-pixel
+//! position or a specular path the overture did not take) a full final gather is done, uncached
+//! (`cache_misses`). A record's gather is the final gather's (its own `gather_rays`
+//! cosine-distributed rays, secondary gathers for short ones), E = π/G Σ L_j.
 
 use super::path::{BsdfSampling, Direct, estimate_direct};
 use super::{Phase, Strategy, render_pixels};
@@ -53,20 +76,27 @@ use crate::bsdf::{Bsdf, TransportMode};
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::geometry::{Ray, spawn_ray};
+use crate::photon::irradiance_cache::{CacheRecord, IrradianceCache};
 use crate::photon::{
     CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
 };
 use crate::resources;
 use crate::sampling::Rng;
+use crate::sampling::sample_cosine_hemisphere;
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use serde::Deserialize;
+use std::f32::consts::{FRAC_1_PI, PI};
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-pub const SUMMARY: &str =
-    "photon mapping with final gathering, optional precomputed irradiance (Jensen 1996; Christensen 1999)";
+/// Random-stream purpose of the irradiance cache's overture, `[CACHE_STREAM, pixel, 0]`: apart
+/// from the purposes of [`super::stream`] (kept local to leave that list to its owners).
+const CACHE_STREAM: u64 = 0x1CAC_4E00;
+
+pub const SUMMARY: &str = "photon mapping with final gathering, optional precomputed irradiance or irradiance caching (Jensen 1996; Christensen 1999; Ward 1988)";
 
 /// Christensen's precomputed irradiance.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -85,6 +115,32 @@ impl Default for Precomputed {
     }
 }
 
+/// Ward's irradiance cache at the camera's first Lambertian hits.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct IrradianceCaching {
+    /// Ward's a: records with weight w > 1/a are interpolated.
+    pub error: f32,
+    /// Lower clamp of a record's harmonic mean distance R (default: 2 % of the diagonal).
+    pub min_distance: Option<f32>,
+    /// Upper clamp of R (default: 50 % of the diagonal).
+    pub max_distance: Option<f32>,
+    /// Final-gather rays of a record (default 256): records are few, and one noisy record
+    /// shows as a blotch over its whole valid region.
+    pub gather_rays: u32,
+}
+
+impl Default for IrradianceCaching {
+    fn default() -> Self {
+        Self {
+            error: 0.2,
+            min_distance: None,
+            max_distance: None,
+            gather_rays: 256,
+        }
+    }
+}
+
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct PhotonMapParams {
@@ -97,6 +153,7 @@ pub struct PhotonMapParams {
     pub short_gather: Option<f32>,
     pub max_depth: u32,
     pub precomputed_irradiance: Option<Precomputed>,
+    pub irradiance_cache: Option<IrradianceCaching>,
 }
 
 impl Default for PhotonMapParams {
@@ -111,6 +168,7 @@ impl Default for PhotonMapParams {
             short_gather: None,
             max_depth: 16,
             precomputed_irradiance: None,
+            irradiance_cache: None,
         }
     }
 }
@@ -166,6 +224,38 @@ impl PhotonMapParams {
                 );
             }
         }
+        if let Some(ic) = &self.irradiance_cache {
+            if !(ic.error.is_finite() && ic.error > 0.0 && ic.error <= 10.0) {
+                return bad(
+                    "irradiance_cache.error: expected Ward's a in (0, 10]",
+                    ic.error.to_string(),
+                );
+            }
+            for (what, d) in [("min_distance", ic.min_distance), ("max_distance", ic.max_distance)] {
+                if let Some(d) = d
+                    && !(d.is_finite() && d > 0.0)
+                {
+                    return bad(
+                        &format!("irradiance_cache.{what}: expected a positive finite distance"),
+                        d.to_string(),
+                    );
+                }
+            }
+            if ic.gather_rays == 0 || ic.gather_rays > 65_536 {
+                return bad(
+                    "irradiance_cache.gather_rays: expected 1..=65536",
+                    ic.gather_rays.to_string(),
+                );
+            }
+            if let (Some(lo), Some(hi)) = (ic.min_distance, ic.max_distance)
+                && lo > hi
+            {
+                return bad(
+                    "irradiance_cache.min_distance: expected at most max_distance",
+                    format!("{lo} > {hi}"),
+                );
+            }
+        }
         Ok(())
     }
 }
@@ -183,12 +273,17 @@ pub struct PhotonMapCounters {
     pub irradiance_lookups: u64,
     /// Caustic-map radiance estimates.
     pub caustic_estimates: u64,
-    /// Final gathers at camera-path hits (each of `gather_rays` rays).
+    /// Final gathers at camera-path hits (each of `gather_rays` rays), the irradiance cache's
+    /// records included.
     pub final_gathers: u64,
+    /// Camera-path hits shaded from the irradiance cache.
+    pub cache_lookups: u64,
+    /// Camera-path Lambertian hits where the cache had no valid record (full final gather).
+    pub cache_misses: u64,
 }
 
 #[derive(Default)]
-struct AtomicCounters([AtomicU64; 6]);
+struct AtomicCounters([AtomicU64; 8]);
 
 impl AtomicCounters {
     fn add(&self, c: &PhotonMapCounters) {
@@ -199,6 +294,8 @@ impl AtomicCounters {
             c.irradiance_lookups,
             c.caustic_estimates,
             c.final_gathers,
+            c.cache_lookups,
+            c.cache_misses,
         ];
         for (a, x) in self.0.iter().zip(v) {
             if x != 0 {
@@ -216,6 +313,8 @@ impl AtomicCounters {
             irradiance_lookups: v(3),
             caustic_estimates: v(4),
             final_gathers: v(5),
+            cache_lookups: v(6),
+            cache_misses: v(7),
         }
     }
 
@@ -231,6 +330,7 @@ struct Maps {
     global: PhotonMap,
     caustic: PhotonMap,
     irradiance: Option<IrradianceMap>,
+    cache: Option<IrradianceCache>,
     estimate: EstimateParams,
     caustic_estimate: EstimateParams,
     short_gather: f32,
@@ -294,7 +394,7 @@ impl Strategy for PhotonMapStrategy {
             Some(pre) => (pre.every.to_string(), pre.normal_dot.to_string()),
             None => ("none".to_string(), "none".to_string()),
         };
-        vec![
+        let mut params = vec![
             ("photons", p.photons.to_string()),
             ("nearest", p.nearest.to_string()),
             ("caustic_nearest", p.caustic_nearest.to_string()),
@@ -305,7 +405,24 @@ impl Strategy for PhotonMapStrategy {
             ("max_depth", p.max_depth.to_string()),
             ("precomputed_every", every),
             ("precomputed_normal_dot", normal_dot),
-        ]
+        ];
+        let cache = match &p.irradiance_cache {
+            Some(ic) => [
+                ic.error.to_string(),
+                opt(ic.min_distance),
+                opt(ic.max_distance),
+                ic.gather_rays.to_string(),
+            ],
+            None => ["none", "none", "none", "none"].map(String::from),
+        };
+        let [error, min_distance, max_distance, rays] = cache;
+        params.extend([
+            ("irradiance_cache_error", error),
+            ("irradiance_cache_min_distance", min_distance),
+            ("irradiance_cache_max_distance", max_distance),
+            ("irradiance_cache_gather_rays", rays),
+        ]);
+        params
     }
 
     /// Work since `prepare` ([`PhotonMapCounters`]), then what `prepare` built: photons in the
@@ -322,6 +439,14 @@ impl Strategy for PhotonMapStrategy {
             ("caustic_estimates", w.caustic_estimates as f64),
             ("final_gathers", w.final_gathers as f64),
         ];
+        if self.params.irradiance_cache.is_some() {
+            let records = self.maps.as_ref().and_then(|m| m.cache.as_ref()).map_or(0, |c| c.len());
+            out.extend([
+                ("cache_records", records as f64),
+                ("cache_lookups", w.cache_lookups as f64),
+                ("cache_misses", w.cache_misses as f64),
+            ]);
+        }
         if let Some(m) = &self.maps {
             let irradiance = m.irradiance.as_ref();
             out.extend([
@@ -357,7 +482,7 @@ impl Strategy for PhotonMapStrategy {
             name: "photon_trace",
             seconds: start.elapsed().as_secs_f64(),
         });
-        phases.extend(self.build_maps(scene, traced.global, traced.caustic));
+        phases.extend(self.build_maps(scene, traced.global, traced.caustic, seed));
         Ok(phases)
     }
 
@@ -370,8 +495,10 @@ impl PhotonMapStrategy {
     /// Builds the kd-trees (and the precomputed irradiance, if asked for) from photon lists
     /// that any photon tracer produced — standard photon tracing here, Metropolis photon
     /// sampling in `mps` — ready for [`PhotonMapStrategy::render_maps`].
-    pub fn build_maps(&mut self, scene: &Scene, global: Vec<Photon>, caustic: Vec<Photon>) -> Vec<Phase> {
+    pub fn build_maps(&mut self, scene: &Scene, global: Vec<Photon>, caustic: Vec<Photon>, seed: u64) -> Vec<Phase> {
+        self.counters.reset();
         let p = &self.params;
+        let diagonal = scene_diagonal(scene);
         let mut phases = Vec::new();
         let start = Instant::now();
         let global = PhotonMap::build(global);
@@ -399,14 +526,35 @@ impl PhotonMapStrategy {
             });
             map
         });
-        self.maps = Some(Maps {
+        let mut maps = Maps {
             global,
             caustic,
             irradiance,
+            cache: None,
             estimate,
             caustic_estimate,
             short_gather: p.short_gather.unwrap_or(2.0 * max_radius),
-        });
+        };
+        if let Some(ic) = &p.irradiance_cache {
+            let start = Instant::now();
+            let r = Renderer {
+                scene,
+                params: p,
+                maps: &maps,
+            };
+            let clamp = (
+                ic.min_distance.unwrap_or(0.02 * diagonal),
+                ic.max_distance.unwrap_or(0.5 * diagonal),
+            );
+            let (lo, hi) = (clamp.0.min(clamp.1), clamp.0.max(clamp.1));
+            let r_clamp = (lo.max(f32::MIN_POSITIVE), hi.max(f32::MIN_POSITIVE));
+            maps.cache = Some(r.fill_cache(ic, r_clamp, seed, &self.counters));
+            phases.push(Phase {
+                name: "irradiance_cache",
+                seconds: start.elapsed().as_secs_f64(),
+            });
+        }
+        self.maps = Some(maps);
         phases
     }
 
@@ -519,6 +667,16 @@ impl Renderer<'_> {
         } else {
             self.params.secondary_gather_rays
         } as usize;
+        if primary && let (Some(cache), Bsdf::Lambertian(lam)) = (&self.maps.cache, bsdf) {
+            // Ward's irradiance cache: ρ/π × the interpolated indirect irradiance.
+            match cache.interpolate(hit.p, side_normal(hit, wo_world)) {
+                Some(e) => {
+                    c.cache_lookups += 1;
+                    return direct + caustic + lam.reflectance * FRAC_1_PI * e;
+                }
+                None => c.cache_misses += 1,
+            }
+        }
         let mut indirect = Vec3::ZERO;
         c.final_gathers += u64::from(primary && g > 0);
         if g > 0 {
@@ -539,7 +697,7 @@ impl Renderer<'_> {
                 if weight == Vec3::ZERO {
                     continue;
                 }
-                indirect += weight * self.gather(spawn_ray(hit.p, hit.ng, wi), primary, rng, c);
+                indirect += weight * self.gather(spawn_ray(hit.p, hit.ng, wi), primary, rng, c).0;
             }
             indirect /= g as f32;
         }
@@ -547,8 +705,22 @@ impl Renderer<'_> {
     }
 
     /// Radiance a gather ray brings back: follows delta surfaces to the next non-delta hit y
-    /// and estimates its outgoing radiance there (emission excluded).
-    fn gather(&self, mut ray: Ray, primary: bool, rng: &mut Rng, c: &mut PhotonMapCounters) -> Vec3 {
+    /// and estimates its outgoing radiance there (emission excluded); and the distance to the
+    /// first surface hit (infinite when the ray escapes).
+    fn gather(&self, ray: Ray, primary: bool, rng: &mut Rng, c: &mut PhotonMapCounters) -> (Vec3, f32) {
+        let mut first = f32::INFINITY;
+        let l = self.gather_to(ray, primary, rng, c, &mut first);
+        (l, first)
+    }
+
+    fn gather_to(
+        &self,
+        mut ray: Ray,
+        primary: bool,
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+        first: &mut f32,
+    ) -> Vec3 {
         let scene = self.scene;
         let mut beta = Vec3::ONE;
         let mut distance = 0.0f32;
@@ -557,6 +729,9 @@ impl Renderer<'_> {
             let Some(hit) = scene.intersect(&ray) else {
                 return Vec3::ZERO;
             };
+            if depth == 0 {
+                *first = hit.t;
+            }
             distance += hit.t;
             let bsdf = scene.bsdf(&hit);
             let wo_world = -ray.d;
@@ -590,6 +765,100 @@ impl Renderer<'_> {
             ray = next;
             depth += 1;
         }
+    }
+
+    /// The irradiance cache's deterministic overture (see the module doc): rounds over pixel
+    /// grids, coarse to fine; in each, the pixels whose centre's first Lambertian hit has no
+    /// valid record compute one in parallel, added in pixel order.
+    fn fill_cache(
+        &self,
+        caching: &IrradianceCaching,
+        r_clamp: (f32, f32),
+        seed: u64,
+        counters: &AtomicCounters,
+    ) -> IrradianceCache {
+        let cam = &self.scene.camera;
+        let (width, height) = (cam.width, cam.height);
+        let mut cache = IrradianceCache::new(caching.error);
+        let mut rounds: Vec<(u32, u32, u32)> = vec![(16, 0, 0)];
+        for step in [8, 4, 2, 1] {
+            rounds.extend([(step, step, 0), (step, 0, step), (step, step, step)]);
+        }
+        for (step, dx, dy) in rounds {
+            // Pixels (dx + 2·step·i, dy + 2·step·j) of this round; the first round is the
+            // 16-grid itself.
+            let stride = if dx == 0 && dy == 0 { step } else { 2 * step };
+            let pixels: Vec<(u32, u32)> = (dy..height)
+                .step_by(stride as usize)
+                .flat_map(|y| (dx..width).step_by(stride as usize).map(move |x| (x, y)))
+                .collect();
+            let found: Vec<Option<CacheRecord>> = pixels
+                .par_iter()
+                .map(|&(x, y)| {
+                    let pixel = u64::from(y) * u64::from(width) + u64::from(x);
+                    let mut rng = Rng::for_task(seed, [CACHE_STREAM, pixel, 0]);
+                    let mut c = PhotonMapCounters::default();
+                    let ray = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                    let record = self.cache_record(ray, &cache, caching.gather_rays, r_clamp, &mut rng, &mut c);
+                    counters.add(&c);
+                    record
+                })
+                .collect();
+            cache.extend(found.into_iter().flatten());
+        }
+        cache
+    }
+
+    /// A new cache record at the first non-delta hit of a camera ray, if that hit is
+    /// Lambertian and `cache` has no valid record there.
+    fn cache_record(
+        &self,
+        mut ray: Ray,
+        cache: &IrradianceCache,
+        gather_rays: u32,
+        (r_min, r_max): (f32, f32),
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+    ) -> Option<CacheRecord> {
+        let scene = self.scene;
+        for _ in 0..=self.params.max_depth {
+            let hit = scene.intersect(&ray)?;
+            let bsdf = scene.bsdf(&hit);
+            if bsdf.is_delta() {
+                ray = delta_bounce(&hit, bsdf, hit.frame.to_local(-ray.d), rng)?.0;
+                continue;
+            }
+            let Bsdf::Lambertian(_) = bsdf else { return None };
+            let n = side_normal(&hit, -ray.d);
+            if cache.interpolate(hit.p, n).is_some() {
+                return None;
+            }
+            // The final gather of `shade` with the cache's G, cosine-distributed about n:
+            // E = π/G Σ L_j, and Ward's R = G / Σ 1/d_j (escaping rays count 1/d = 0).
+            let g = gather_rays as usize;
+            let sign = if n.dot(hit.frame.n) >= 0.0 { 1.0 } else { -1.0 };
+            let (mut sum, mut inverse_d) = (Vec3::ZERO, 0.0f32);
+            c.final_gathers += 1;
+            for u in latin_hypercube(g, rng) {
+                c.gather_rays += 1;
+                let w = sample_cosine_hemisphere(u);
+                let wi = hit.frame.to_world(Vec3::new(w.x, w.y, sign * w.z));
+                if wi.dot(hit.ng) * sign <= 0.0 {
+                    continue;
+                }
+                let (l, d) = self.gather(spawn_ray(hit.p, hit.ng, wi), true, rng, c);
+                sum += l;
+                inverse_d += 1.0 / d;
+            }
+            let r = if inverse_d > 0.0 { g as f32 / inverse_d } else { r_max };
+            return Some(CacheRecord {
+                p: hit.p,
+                n,
+                e: sum * (PI / g as f32),
+                r: r.clamp(r_min, r_max),
+            });
+        }
+        None
     }
 
     /// Radiance estimate of `map` at `hit` towards `wo_world` with the BSDF: on the side seen
