@@ -27,6 +27,12 @@
 //! `<label>[key=value,…]` with its swept values, e.g. `path[max_depth=4]`; a strategy without
 //! list-valued parameters keeps its plain label.
 //!
+//! ## A strategy's own scenes
+//!
+//! `scenes = ["rooms", "lantern"]` in a `[[strategy]]` table runs it on those of the
+//! experiment's scenes only (named by file stem), e.g. a proposal mix tuned per scene as in
+//! Fan et al. 2005's Table 1. Never swept.
+//!
 //! ## A strategy's own budgets
 //!
 //! A `[[strategy]]` table may restrict itself to some of the experiment's checkpoints with its
@@ -92,9 +98,17 @@ pub struct StrategySpec {
     pub spp: Vec<u32>,
     /// This strategy's time budgets: the experiment's `seconds`, or the subset its table names.
     pub seconds: Vec<f64>,
+    /// The scenes (file stems) this strategy runs on: all of the experiment's when empty, or
+    /// the subset its table names (`scenes = ["rooms"]`).
+    pub scenes: Vec<String>,
 }
 
 impl StrategySpec {
+    /// Does this strategy run on the scene loaded from `scene_file`?
+    pub fn runs_on(&self, scene_file: &Path) -> bool {
+        self.scenes.is_empty() || self.scenes.iter().any(|s| *s == scene_stem(scene_file))
+    }
+
     /// A fresh strategy object for one run.
     pub fn instantiate(&self) -> Result<Box<dyn Strategy>> {
         strategy::build(&self.kind, self.params.clone())
@@ -175,13 +189,17 @@ impl Experiment {
         if raw.strategies.is_empty() {
             return Err(at("strategy: expected at least one [[strategy]] table".into()));
         }
+        let scene_files: Vec<PathBuf> = raw.scenes.iter().map(|s| join_clean(dir, s)).collect();
+        let stems: Vec<String> = scene_files.iter().map(|f| scene_stem(f)).collect();
         let mut strategies: Vec<StrategySpec> = Vec::new();
         for (i, mut table) in raw.strategies.into_iter().enumerate() {
             let (own_spp, own_seconds) =
                 strategy_budgets(&mut table, &spp, &seconds).map_err(|e| at(format!("strategy[{i}]{e}")))?;
+            let own_scenes = strategy_scenes(&mut table, &stems).map_err(|e| at(format!("strategy[{i}]{e}")))?;
             for mut spec in strategy_specs(table).map_err(|e| at(format!("strategy[{i}]{e}")))? {
                 spec.spp = own_spp.clone();
                 spec.seconds = own_seconds.clone();
+                spec.scenes = own_scenes.clone();
                 let clash = strategies
                     .iter()
                     .find(|s| s.label == spec.label || s.file_stem() == spec.file_stem());
@@ -199,7 +217,7 @@ impl Experiment {
             text,
             name,
             description: raw.description.unwrap_or_default(),
-            scenes: raw.scenes.iter().map(|s| join_clean(dir, s)).collect(),
+            scenes: scene_files,
             spp,
             seconds,
             seeds,
@@ -237,6 +255,35 @@ pub fn file_stem(label: &str) -> String {
         }
     }
     out.trim_end_matches('-').to_string()
+}
+
+/// The name a scene file is known by in `scenes = [...]` of a strategy: its file stem.
+pub fn scene_stem(file: &Path) -> String {
+    file.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Takes a strategy table's own `scenes` (file stems of some of the experiment's scenes) out
+/// of it; empty means every scene.
+fn strategy_scenes(table: &mut toml::Table, stems: &[String]) -> Result<Vec<String>, String> {
+    let Some(value) = table.remove("scenes") else {
+        return Ok(Vec::new());
+    };
+    let expected = || format!(".scenes: expected a non-empty list of scene names among {stems:?}, got {value}");
+    let list = value.as_array().filter(|a| !a.is_empty()).ok_or_else(expected)?;
+    list.iter()
+        .map(|v| {
+            let name = v.as_str().ok_or_else(expected)?;
+            if stems.iter().any(|s| s == name) {
+                Ok(name.to_string())
+            } else {
+                Err(format!(
+                    ".scenes: `{name}` is not one of the experiment's scenes {stems:?}"
+                ))
+            }
+        })
+        .collect()
 }
 
 /// Takes a strategy table's own budgets (`spp`, `seconds`) out of it: each, when given, must
@@ -390,6 +437,7 @@ fn strategy_spec(mut table: toml::Table) -> Result<StrategySpec, String> {
         swept: Vec::new(),
         spp: Vec::new(),
         seconds: Vec::new(),
+        scenes: Vec::new(),
     })
 }
 
@@ -436,6 +484,35 @@ mod tests {
         assert_eq!(e.seeds, vec![0, 1]);
         assert_eq!(e.strategies[0].label, "path");
         assert_eq!(e.scenes[0], Path::new("scenes/a.toml"));
+    }
+
+    #[test]
+    fn a_strategy_may_run_on_some_scenes_only() {
+        let text = "scenes = [\"../scenes/a.toml\", \"../scenes/b.toml\"]\nspp = [1]\n\
+            [[strategy]]\nkind = \"path\"\n\
+            [[strategy]]\nkind = \"path\"\nlabel = \"only-b\"\nscenes = [\"b\"]\n";
+        let e = parse(text).unwrap();
+        let (all, only_b) = (&e.strategies[0], &e.strategies[1]);
+        assert!(all.runs_on(Path::new("scenes/a.toml")) && all.runs_on(Path::new("scenes/b.toml")));
+        assert!(!only_b.runs_on(Path::new("scenes/a.toml")) && only_b.runs_on(Path::new("scenes/b.toml")));
+        assert!(
+            !only_b.params.contains_key("scenes"),
+            "scenes is not a strategy parameter"
+        );
+        for (bad, expect) in [
+            ("scenes = [\"c\"]", "`c` is not one of the experiment's scenes"),
+            ("scenes = []", "expected a non-empty list of scene names"),
+            ("scenes = \"b\"", "expected a non-empty list of scene names"),
+        ] {
+            let text = format!(
+                "scenes = [\"../scenes/a.toml\", \"../scenes/b.toml\"]\nspp = [1]\n[[strategy]]\nkind = \"path\"\n{bad}\n"
+            );
+            let err = parse(&text).unwrap_err().to_string();
+            assert!(
+                err.contains("strategy[0].scenes") && err.contains(expect),
+                "{bad}: {err}"
+            );
+        }
     }
 
     #[test]

@@ -27,6 +27,8 @@ use std::time::Instant;
 
 /// A scene with its reference, loaded and checked.
 struct Prepared {
+    /// The scene file, as the experiment names it.
+    file: PathBuf,
     scene: Scene,
     reference: Reference,
 }
@@ -48,7 +50,11 @@ fn prepare_all(exp: &Experiment) -> Result<Vec<Prepared>> {
     for path in &exp.scenes {
         let scene = load_scene(path)?;
         let reference = reference::load(&exp.references, &scene)?;
-        prepared.push(Prepared { scene, reference });
+        prepared.push(Prepared {
+            file: path.clone(),
+            scene,
+            reference,
+        });
     }
     Ok(prepared)
 }
@@ -179,6 +185,7 @@ fn plan<'a>(
     prepared.iter().flat_map(move |p| {
         exp.strategies
             .iter()
+            .filter(move |spec| spec.runs_on(&p.file))
             .flat_map(move |spec| exp.seeds.iter().map(move |&seed| (p, spec, seed)))
     })
 }
@@ -323,7 +330,7 @@ fn utc_stamp(secs: u64) -> String {
 /// Renders (or takes from the cache) every cell into `dir`; returns (cached, rendered) counts.
 fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, force: bool) -> Result<(usize, usize)> {
     std::fs::write(dir.join("experiment.toml"), &exp.text).context(dir.display())?;
-    let cells = prepared.len() * exp.strategies.len() * exp.seeds.len();
+    let cells = plan(exp, prepared).count();
     let bar = ProgressBar::new(cells as u64).with_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -337,7 +344,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
     let cells_dir = exp.output.join(&exp.name).join("cells");
     let (mut rows, mut cached, mut rendered) = (Vec::new(), 0, 0);
     for p in prepared {
-        for spec in &exp.strategies {
+        for spec in exp.strategies.iter().filter(|s| s.runs_on(&p.file)) {
             let params = param_string(spec)?;
             for &seed in &exp.seeds {
                 bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
