@@ -223,7 +223,7 @@ fn srgb8(linear: f32) -> u8 {
 }
 
 /// Encodes an 8-bit RGB buffer as PNG and writes it atomically.
-fn write_rgb8_png(rgb: image::RgbImage, path: &Path) -> Result<()> {
+pub fn write_rgb8_png(rgb: image::RgbImage, path: &Path) -> Result<()> {
     let mut bytes = std::io::Cursor::new(Vec::new());
     rgb.write_to(&mut bytes, image::ImageFormat::Png)
         .context(format_args!("{}: cannot encode PNG", path.display()))?;

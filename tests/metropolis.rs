@@ -40,18 +40,6 @@ fn block_of(x: usize, y: usize) -> usize {
     (y * BLOCKS / H as usize) * BLOCKS + x * BLOCKS / W as usize
 }
 
-/// Mean and standard error of each block's mean luminance over `runs` estimates.
-fn mean_se(runs: &[[f64; BLOCKS * BLOCKS]]) -> Vec<(f64, f64)> {
-    let n = runs.len() as f64;
-    (0..BLOCKS * BLOCKS)
-        .map(|b| {
-            let mean = runs.iter().map(|r| r[b]).sum::<f64>() / n;
-            let var = runs.iter().map(|r| (r[b] - mean).powi(2)).sum::<f64>() / (n - 1.0);
-            (mean, (var / n).sqrt())
-        })
-        .collect()
-}
-
 /// Block means of path tracing, from 8 independent 96-spp renders.
 fn path_blocks(scene: &Scene) -> Vec<(f64, f64)> {
     let path = strategy::build("path", toml::Table::new()).unwrap();
@@ -70,7 +58,7 @@ fn path_blocks(scene: &Scene) -> Vec<(f64, f64)> {
             blocks.map(|b| b / per_block)
         })
         .collect();
-    mean_se(&runs)
+    mean_se_n(&runs)
 }
 
 /// Path functionals h(X) whose integrals ∫ h f_Y dμ the chain must reproduce: the path
@@ -151,10 +139,10 @@ fn chain_estimates(scene: &Scene, proposals: ProposalMix, mutations_per_chain: u
     }
     let blocks: Vec<_> = runs.iter().map(|r| r.0).collect();
     let feats: Vec<_> = runs.iter().map(|r| r.1).collect();
-    (mean_se(&blocks), mean_se_n(&feats), b.std_error / b.b_y, tally)
+    (mean_se_n(&blocks), mean_se_n(&feats), b.std_error / b.b_y, tally)
 }
 
-/// [`mean_se`] for feature arrays.
+/// Mean and standard error of each entry over `runs` independent estimates.
 fn mean_se_n<const N: usize>(runs: &[[f64; N]]) -> Vec<(f64, f64)> {
     let n = runs.len() as f64;
     (0..N)

@@ -279,16 +279,36 @@ fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec
 
 /// Links (or copies, across file systems) a cell's images into the run directory.
 fn link_images(cell: &Path, rows: &[Row], dir: &Path) -> Result<()> {
+    let link = |rel: &Path| -> Result<()> {
+        let (from, to) = (cell.join(rel), dir.join(rel));
+        if std::fs::hard_link(&from, &to).is_err() {
+            std::fs::copy(&from, &to).context(from.display())?;
+        }
+        Ok(())
+    };
     for r in rows {
         for rel in image_files(Path::new(&r.image)) {
-            let (from, to) = (cell.join(&rel), dir.join(&rel));
-            if std::fs::hard_link(&from, &to).is_err() {
-                std::fs::copy(&from, &to).context(from.display())?;
-            }
+            link(&rel)?;
+        }
+    }
+    // The cell's photon distribution image, if its strategy stores photons.
+    if let Some(first) = rows.first() {
+        let image = Path::new(&first.image);
+        let stem = image
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let cell_stem = stem.rsplit_once('_').map_or(stem.as_str(), |(a, _)| a);
+        let rel = image.with_file_name(format!("{cell_stem}{PHOTONS_PNG}"));
+        if cell.join(&rel).exists() {
+            link(&rel)?;
         }
     }
     Ok(())
 }
+
+/// Suffix of a cell's photon distribution image ([`crate::report::photons`]).
+const PHOTONS_PNG: &str = "_photons.png";
 
 /// A run id that sorts by time and never collides with an earlier run in `base`.
 fn new_run_id(base: &Path) -> String {
@@ -546,6 +566,11 @@ fn render_cell(
     let counters = CounterClock::new(strategy.counters());
     let (width, height) = (p.scene.camera.width, p.scene.camera.height);
     let stem = format!("{}_{}_seed{seed}", p.scene.name, spec.file_stem());
+    let photons = strategy.photons();
+    if !photons.is_empty() {
+        let path = dir.join("images").join(format!("{stem}{PHOTONS_PNG}"));
+        crate::report::photons::write_photon_image(&p.scene, &photons, &path)?;
+    }
     let mut rows = Vec::new();
 
     // Equal samples: checkpoints of one progressive render.

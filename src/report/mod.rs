@@ -7,6 +7,7 @@ pub mod convergence;
 pub mod counters;
 pub mod final_gather;
 pub mod html;
+pub mod photons;
 pub mod plot;
 pub mod rows;
 pub mod stats;

@@ -53,6 +53,12 @@ pub trait Strategy: Send + Sync {
     fn counters(&self) -> Vec<(String, f64)> {
         Vec::new()
     }
+
+    /// The photons the strategy renders with (its global map: position and normal), for the
+    /// photon distribution images of Fan et al. 2005, Fig. 2; empty without photons.
+    fn photons(&self) -> Vec<(Vec3, Vec3)> {
+        Vec::new()
+    }
 }
 
 /// Stream purposes, so that different uses of one seed never share random numbers.

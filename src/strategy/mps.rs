@@ -249,6 +249,10 @@ impl Strategy for Mps {
         self.gather.render_maps(scene, seed, samples, film);
     }
 
+    fn photons(&self) -> Vec<(Vec3, Vec3)> {
+        self.gather.photons()
+    }
+
     fn counters(&self) -> Vec<(String, f64)> {
         let Some(s) = &self.stats else { return Vec::new() };
         let mut out = vec![
@@ -357,6 +361,7 @@ impl Deposit {
 }
 
 /// Photons of all chains, in chain order.
+#[derive(Default)]
 struct Sampled {
     global: Vec<Photon>,
     caustic: Vec<Photon>,
@@ -473,12 +478,7 @@ fn sample_photons(
             let scene = ctx.scene;
             let mut chain = Chain::new(ctx, start.clone());
             let mut rng = Rng::for_task(seed, [super::stream::CHAIN, c as u64, 0]);
-            let mut out = Sampled {
-                global: Vec::new(),
-                caustic: Vec::new(),
-                tally: Tally::default(),
-                unseen: 0,
-            };
+            let mut out = Sampled::default();
             let mut emit = |d: Deposit| {
                 let mut power = d.power;
                 if let Some(imp) = importons {
@@ -542,12 +542,7 @@ fn sample_photons(
             out
         })
         .collect();
-    let mut all = Sampled {
-        global: Vec::new(),
-        caustic: Vec::new(),
-        tally: Tally::default(),
-        unseen: 0,
-    };
+    let mut all = Sampled::default();
     for r in results {
         all.global.extend(r.global);
         all.caustic.extend(r.caustic);

@@ -463,6 +463,12 @@ impl Strategy for PhotonMapStrategy {
         out.into_iter().map(|(n, v)| (n.to_string(), v)).collect()
     }
 
+    fn photons(&self) -> Vec<(Vec3, Vec3)> {
+        self.maps.as_ref().map_or_else(Vec::new, |m| {
+            m.global.photons().iter().map(|p| (p.position(), p.normal())).collect()
+        })
+    }
+
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
         let p = &self.params;
         // A photon path stores about 1 / (1 − albedo) photons, plus caustic copies: budget 8.
