@@ -345,3 +345,118 @@ fn bd_reaches_the_light_seen_in_a_mirror_from_a_diffuse_path() {
     );
     eprintln!("L S E proposed {proposed} times");
 }
+
+/// An open box (1 m, no front wall) with a ceiling light: from the light every floor point is
+/// visible, and the camera in front sees part of the floor.
+const OPEN_BOX: &str = r#"
+[camera]
+eye = [0.5, 0.5, -1.2]
+look_at = [0.5, 0.4, 0.5]
+up = [0, 1, 0]
+fov_y = 40
+resolution = [32, 24]
+
+[materials.white]
+type = "diffuse"
+reflectance = [0.7, 0.7, 0.7]
+
+[[shapes]]
+type = "quad"
+material = "white"
+center = [0.5, 0.0, 0.5]
+size = [1.0, 1.0]
+facing = "+y"
+
+[[shapes]]
+type = "quad"
+material = "white"
+center = [0.5, 1.0, 0.5]
+size = [1.0, 1.0]
+facing = "-y"
+
+[[shapes]]
+type = "quad"
+material = "white"
+center = [0.5, 0.5, 1.0]
+size = [1.0, 1.0]
+facing = "-z"
+
+[[shapes]]
+type = "quad"
+material = "white"
+center = [0.2, 0.999, 0.5]
+size = [0.2, 0.2]
+facing = "-y"
+emission = { radiance = [10, 10, 10], two_sided = false }
+"#;
+
+/// E over proposals Y ~ T(·|X) of g(Y) / T(Y|X) is ∫ g dμ over where T > 0: with g the
+/// indicator "the one new vertex lies on the floor", the floor area the proposal can reach.
+/// This checks a proposal's reported T against the distribution of its own candidates.
+fn integrate_over_floor(samples: &[f64], area: f64, what: &str) {
+    let n = samples.len() as f64;
+    let mean = samples.iter().sum::<f64>() / n;
+    let var = samples.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let se = (var / n).sqrt();
+    let z = (mean - area) / se;
+    eprintln!("{what}: E[g/T] = {mean:.4} ± {se:.4}, reachable floor area {area:.4}, z = {z:.2}");
+    assert!(
+        z.abs() < 4.5,
+        "{what}: E[g/T] = {mean:.4} ± {se:.4}, expected {area:.4} (z = {z:.2})"
+    );
+}
+
+#[test]
+fn bd_and_ls_transition_densities_match_their_own_candidates() {
+    use photon_bench::metropolis::proposals::{bidirectional, lens_subpath};
+    use photon_bench::path_space::walk::trace_from;
+    use photon_bench::path_space::{Vertex, pdf_eye_side};
+    let (scene, _) =
+        photon_bench::scene::load::load_scene_bytes(std::path::Path::new("open-box.toml"), OPEN_BOX.as_bytes())
+            .unwrap();
+    let params = MetropolisParams::default();
+    let ctx = Context {
+        scene: &scene,
+        params: &params,
+        user_paths: &[],
+        max_edges: 17,
+    };
+    // X = L D E: light centre, a point on the back wall, the eye.
+    let x0 = Vertex::light(&scene, 0, Vec3::new(0.2, 0.999, 0.5), -Vec3::Y);
+    let x1 = trace_from(&scene, &x0, (Vec3::new(0.6, 0.5, 1.0) - x0.p).normalize()).unwrap();
+    let x = vec![x0, x1, Vertex::eye(&scene)];
+    let on_floor = |v: &Vertex| v.p.y.abs() < 1e-4;
+    let n = 200_000;
+    let mut rng = Rng::for_task(1, [0, 0, 0]);
+
+    // BD: deleting x1 alone and adding one vertex, from the light (any floor point) or from
+    // the eye; the whole floor is reachable from the light.
+    let bd: Vec<f64> = (0..n)
+        .map(|_| match bidirectional(&ctx, &x, &mut rng) {
+            Some((y, 0, 1)) if y.len() == 3 && on_floor(&y[1]) => {
+                1.0 / photon_bench::metropolis::proposals::bd_density(&ctx, &x, &y, 0, 1)
+            }
+            _ => 0.0,
+        })
+        .collect();
+    integrate_over_floor(&bd, 1.0, "BD");
+
+    // LS: a new eye sub-path through a uniform raster point; reachable: the floor in view.
+    let cam = &scene.camera;
+    let in_view = (0..400_000)
+        .filter(|i| {
+            let mut r = Rng::for_task(2, [*i, 0, 0]);
+            let u = r.uniform2();
+            let p = Vec3::new(u.x, 0.0, u.y);
+            cam.raster_position((p - cam.eye).normalize()).is_some()
+        })
+        .count() as f64
+        / 400_000.0;
+    let ls: Vec<f64> = (0..n)
+        .map(|_| match lens_subpath(&ctx, &x, &mut rng) {
+            Some(c) if c.path.len() == 3 && on_floor(&c.path[1]) => 1.0 / pdf_eye_side(&scene, &c.path, 1) as f64,
+            _ => 0.0,
+        })
+        .collect();
+    integrate_over_floor(&ls, in_view, "LS");
+}
