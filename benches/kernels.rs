@@ -5,7 +5,9 @@
 //!   uniformly random directions (shadow rays: length 0.25);
 //! - `bsdf/sample/<model>`: one `sample` call per iteration of each reflectance model;
 //! - `photon_grid/build` and `photon_grid/sample`: Jensen 1995's 4 × 16 pdf from 50 photons and
-//!   one direction drawn from it.
+//!   one direction drawn from it;
+//! - `metropolis/<proposal>`: one Metropolis step (proposal, contribution, acceptance) of each
+//!   proposal alone on `cornell-spheres` (BD, PM, CP, LP, LS; UP needs user paths: `box`).
 //!
 //! Run: `cargo bench --bench kernels` (throughputs in elements/s). Timings in results and the
 //! README always come with the machine's core count; these run on one thread.
@@ -117,5 +119,52 @@ fn photon_grid(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bvh, bsdf, photon_grid);
+fn metropolis(c: &mut Criterion) {
+    use photon_bench::metropolis::proposals::Context;
+    use photon_bench::metropolis::{
+        Chain, MetropolisParams, Proposal, ProposalMix, State, Tally, estimate_b, prepare_user_paths,
+    };
+    let mut g = c.benchmark_group("metropolis");
+    g.throughput(Throughput::Elements(1));
+    for (file, kinds) in [
+        (
+            "scenes/cornell-spheres.toml",
+            &[Proposal::Bd, Proposal::Pm, Proposal::Cp, Proposal::Lp, Proposal::Ls][..],
+        ),
+        ("scenes/box.toml", &[Proposal::Up][..]),
+    ] {
+        let scene = load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).expect("the shipped scene loads");
+        let base = MetropolisParams {
+            b_samples: 20_000,
+            chains: 1,
+            ..MetropolisParams::default()
+        };
+        let (_, starts) = estimate_b(&scene, &base, 1).expect("light reaches the image");
+        let user_paths = prepare_user_paths(&scene).expect("valid user paths");
+        for &kind in kinds {
+            let params = MetropolisParams {
+                proposals: ProposalMix::only(kind),
+                ..base.clone()
+            };
+            let ctx = Context {
+                scene: &scene,
+                params: &params,
+                user_paths: &user_paths,
+                max_edges: params.max_depth as usize + 1,
+            };
+            let mut chain = Chain::new(ctx, State::new(&scene, starts[0].clone()).expect("a valid first state"));
+            let mut rng = Rng::for_task(2, [0, 0, 0]);
+            let mut tally = Tally::default();
+            g.bench_function(kind.name(), |b| {
+                b.iter(|| {
+                    let step = chain.step(&mut rng, &mut tally);
+                    chain.commit(black_box(step));
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bvh, bsdf, photon_grid, metropolis);
 criterion_main!(benches);

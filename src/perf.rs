@@ -257,24 +257,8 @@ fn measure_mutations(scene: &Scene, seed: u64) -> [f64; 6] {
         if kind == Proposal::Up && user_paths.is_empty() {
             return f64::NAN;
         }
-        let mut mix = ProposalMix {
-            up: 0.0,
-            bd: 0.0,
-            pm: 0.0,
-            cp: 0.0,
-            lp: 0.0,
-            ls: 0.0,
-        };
-        match kind {
-            Proposal::Up => mix.up = 1.0,
-            Proposal::Bd => mix.bd = 1.0,
-            Proposal::Pm => mix.pm = 1.0,
-            Proposal::Cp => mix.cp = 1.0,
-            Proposal::Lp => mix.lp = 1.0,
-            Proposal::Ls => mix.ls = 1.0,
-        }
         let params = MetropolisParams {
-            proposals: mix,
+            proposals: ProposalMix::only(kind),
             ..base.clone()
         };
         const STEPS: u64 = 5000;

@@ -84,6 +84,15 @@ impl Proposal {
 }
 
 impl ProposalMix {
+    /// One proposal alone (for timing and tests: a chain of LP alone, say, is not ergodic, and
+    /// UP alone is refused by validation).
+    pub fn only(p: Proposal) -> Self {
+        let mut values = [0.0; 6];
+        values[p as usize] = 1.0;
+        let [up, bd, pm, cp, lp, ls] = values;
+        Self { up, bd, pm, cp, lp, ls }
+    }
+
     pub fn get(&self, p: Proposal) -> f64 {
         [self.up, self.bd, self.pm, self.cp, self.lp, self.ls][p as usize]
     }
