@@ -50,6 +50,8 @@ pub trait Strategy: Send + Sync {
 
     /// Named quantities the strategy counted or estimated since `prepare` (gather rays, photons
     /// stored, proposals accepted, B_eye …), in a fixed order; recorded with every result row.
+    /// Each must either accumulate since `prepare` or stay constant while rendering (rows take
+    /// differences between checkpoints): report a ratio as its numerator and denominator.
     fn counters(&self) -> Vec<(String, f64)> {
         Vec::new()
     }

@@ -3,36 +3,44 @@
 //! go; the photon maps are then rendered by the final gather of `photon_map`.
 //!
 //! **Phases**: `b_eye` (path-tracing estimate of B_eye and the chains' first states, the
-//! paper's t_B), `photon_sampling` (the chains), `kdtree_build` (with the sampling: the
-//! paper's t_map), optionally `irradiance_precompute`; rendering is the final gather (t_FG).
+//! paper's t_B), `importon_trace` (with the importon normalisation), `photon_sampling` (the
+//! chains), `kdtree_build` (with the sampling: the paper's t_map), then whatever the final
+//! gather prepares (`irradiance_precompute`, `irradiance_cache`); rendering is the final
+//! gather (t_FG).
 //!
 //! **Storage points** [Fan et al. 2005, §3.2]: a path L (D|S)* D S* D S* E stores a photon in
 //! the global map at its second diffuse vertex counted from the eye (where final-gather rays
 //! land); a path L S+ D S* E stores one in the caustic map at its first diffuse vertex from the
 //! eye; other paths (L D S* E: direct light, L S* E) store nothing. The photon records the
 //! incoming direction and the light sub-path's flux density f_map(X_map) = Le G Π f_s G up to
-//! the storage point.
+//! the storage point. Every step stores the current path with weight 1 − a and the candidate
+//! with weight a (expected values, as in MLT); weights landing on the storage point and
+//! incoming direction of the photon being accumulated add to it instead of making a new photon
+//! (the paper's repeated paths).
 //!
-//! **Photon power** (per channel) F = B_eye,Y · f_map(X_map) / (N · f_eye,Y(X)) [Fan et al.
-//! 2005, §3.2], N the number of Metropolis iterations over all chains. Every step stores the
-//! current path with weight 1 − a and the candidate with weight a (expected values, as in
-//! MLT); weights landing on the storage point and incoming direction of the photon being
-//! accumulated add to it instead of making a new photon (the paper's repeated paths).
+//! **Photon power** (per channel), N the Metropolis iterations over all chains:
+//! - `photon_power = "paper"`: F = B_eye,Y · f_map(X_map) / (N · f_eye,Y(X)) [Fan et al.
+//!   2005, §3.2]. Its expectation E[Σ F] is ∫ f_map dμ(X) over *whole* paths, the eye
+//!   sub-path's vertices included, while a photon map must hold ∫ f_map dμ(X_map): the two
+//!   differ by the measure of the eye sub-paths behind each light sub-path (area², area⁴ …),
+//!   so the image depends on the unit of length (`tests/mps.rs`: ×1300 for a box 10× larger).
+//! - `photon_power = "importon"` (default, our correction): F = B_eye,Y · f_map(X_map) ·
+//!   q(X_eye, x_s) / (N · f_eye,Y(X) · q_s(x_s)). Here q(X_eye, x_s) = Π pdf_eye_side is the
+//!   density with which the final gather's eye sub-paths (camera ray, specular bounces, first
+//!   diffuse hit, one BSDF-sampled gather ray, specular bounces) produce the sampled eye
+//!   sub-path and storage point, and q_s(x_s) = ∫ q dμ(X_eye) its marginal at x_s, the density
+//!   of gather hits, estimated from [`Importons`] traced the same way (k-nearest density with
+//!   the photons' normal test). Then q / q_s is a normalised density over the eye sub-path
+//!   given X_map and E[Σ F] = ∫ f_map dμ(X_map) wherever the renderer looks, up to the density
+//!   estimate; caustic photons use the density of the camera paths' first diffuse hits.
 //!
-//! **A caveat we measured and keep visible** rather than patch: E[Σ F] over the chain is
-//! ∫ f_map(X_map) dμ(X), an integral over whole paths, eye sub-path included; the flux a
-//! photon map must hold is ∫ f_map dμ(X_map). The two differ by the measure of the eye
-//! sub-paths that can follow each light sub-path, so the paper's formula is exact only up to
-//! that (scene- and unit-dependent) factor. `counters()` reports the total stored power next
-//! to the power standard photon tracing delivers to the same storage points, and the
-//! experiments report the error against path-traced references, so the effect is on record.
-//!
-//! Parameters: `mutations` (N, default 200 000), the chain's ([`MetropolisParams`]:
-//! `proposals`, `max_depth`, `b_samples`, `chains`, `pm_gamma_deg`, `lens_r1_px`,
-//! `lens_r2_fraction`, `caustic_theta1`, `caustic_theta2`) and the final gather's
-//! ([`PhotonMapParams`]: `nearest`, `caustic_nearest`, `max_radius`, `gather_rays`,
-//! `secondary_gather_rays`, `short_gather`, `precomputed_irradiance`; `photons` does not
-//! apply). `max_depth` bounds both the chain's paths and the gather's specular bounces.
+//! Parameters: `mutations` (N, default 200 000), `photon_power`, `importons` (1 000 000),
+//! `importon_nearest` (64); the chain's ([`MetropolisParams`]: `proposals`, `max_depth`,
+//! `b_samples`, `chains`, `pm_gamma_deg`, `lens_r1_px`, `lens_r2_fraction`, `caustic_theta1`,
+//! `caustic_theta2`) and the final gather's ([`PhotonMapParams`]: `nearest`,
+//! `caustic_nearest`, `max_radius`, `gather_rays`, `secondary_gather_rays`, `short_gather`,
+//! `precomputed_irradiance`, `irradiance_cache`; `photons` does not apply). `max_depth`
+//! bounds both the chain's paths and the gather's specular bounces.
 
 use super::mlt::{chain_share, prepare_chains};
 use super::photon_map::{PhotonMapParams, PhotonMapStrategy};
