@@ -22,8 +22,9 @@ pub const PLOT_SIZE_PX: (u32, u32) = (960, 640);
 pub(super) const FONT: &str = "sans-serif";
 
 /// Okabe & Ito's colour-blind-safe palette (2008, "Color Universal Design"), yellow left out
-/// as it is unreadable on white; series cycle through it.
-pub(super) const PALETTE: [RGBColor; 7] = [
+/// as it is unreadable on white, then four of ColorBrewer's "Dark2" for experiments with more
+/// than seven strategies (every strategy kind at once); series cycle through it.
+pub(super) const PALETTE: [RGBColor; 11] = [
     RGBColor(0, 114, 178),   // blue
     RGBColor(213, 94, 0),    // vermillion
     RGBColor(0, 158, 115),   // bluish green
@@ -31,6 +32,10 @@ pub(super) const PALETTE: [RGBColor; 7] = [
     RGBColor(230, 159, 0),   // orange
     RGBColor(86, 180, 233),  // sky blue
     RGBColor(0, 0, 0),       // black
+    RGBColor(117, 112, 179), // Dark2 purple
+    RGBColor(166, 118, 29),  // Dark2 brown
+    RGBColor(231, 41, 138),  // Dark2 magenta
+    RGBColor(102, 102, 102), // Dark2 grey
 ];
 
 /// One curve of a plot.
