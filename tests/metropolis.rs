@@ -460,3 +460,48 @@ fn bd_and_ls_transition_densities_match_their_own_candidates() {
         .collect();
     integrate_over_floor(&ls, in_view, "LS");
 }
+
+/// PM's density against its own candidates: from X = L D D E in the open box, PM turns the
+/// direction x₂ → x₁ (back wall to floor) within a 30° cone; E[1{y on the floor} / T] is the
+/// floor area inside that cone (every such point sees the light).
+#[test]
+fn pm_transition_density_matches_its_own_candidates() {
+    use photon_bench::metropolis::proposals::photon_map;
+    use photon_bench::path_space::walk::trace_from;
+    use photon_bench::path_space::{Vertex, solid_angle_to_area};
+    let (scene, _) =
+        photon_bench::scene::load::load_scene_bytes(std::path::Path::new("open-box.toml"), OPEN_BOX.as_bytes())
+            .unwrap();
+    let params = MetropolisParams::default();
+    let ctx = Context {
+        scene: &scene,
+        params: &params,
+        user_paths: &[],
+        max_edges: 17,
+    };
+    let x0 = Vertex::light(&scene, 0, Vec3::new(0.2, 0.999, 0.5), -Vec3::Y);
+    let x1 = trace_from(&scene, &x0, (Vec3::new(0.5, 0.0, 0.6) - x0.p).normalize()).unwrap();
+    let x2 = trace_from(&scene, &x1, (Vec3::new(0.5, 0.3, 1.0) - x1.p).normalize()).unwrap();
+    let x = vec![x0, x1, x2, Vertex::eye(&scene)];
+    let cos_gamma = params.pm_gamma_deg.to_radians().cos();
+    let cone_pdf = 1.0 / (std::f64::consts::TAU * (1.0 - cos_gamma as f64));
+    let axis = (x1.p - x2.p).normalize();
+    let mut rng = Rng::for_task(3, [0, 0, 0]);
+    let samples: Vec<f64> = (0..200_000)
+        .map(|_| match photon_map(&ctx, &x, &mut rng) {
+            Some(c) if c.path.len() == 4 && c.path[1].p.y.abs() < 1e-4 => {
+                1.0 / (cone_pdf * solid_angle_to_area(&c.path[2], &c.path[1]) as f64)
+            }
+            _ => 0.0,
+        })
+        .collect();
+    let inside = (0..400_000u64)
+        .filter(|&i| {
+            let u = Rng::for_task(4, [i, 0, 0]).uniform2();
+            let p = Vec3::new(u.x, 0.0, u.y);
+            (p - x2.p).normalize().dot(axis) >= cos_gamma
+        })
+        .count() as f64
+        / 400_000.0;
+    integrate_over_floor(&samples, inside, "PM");
+}
