@@ -146,12 +146,7 @@ fn metropolis(c: &mut Criterion) {
                 proposals: ProposalMix::only(kind),
                 ..base.clone()
             };
-            let ctx = Context {
-                scene: &scene,
-                params: &params,
-                user_paths: &user_paths,
-                max_edges: params.max_depth as usize + 1,
-            };
+            let ctx = Context::new(&scene, &params, &user_paths);
             let mut chain = Chain::new(ctx, State::new(&scene, starts[0].clone()).expect("a valid first state"));
             let mut rng = Rng::for_task(2, [0, 0, 0]);
             let mut tally = Tally::default();

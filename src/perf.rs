@@ -267,12 +267,7 @@ fn measure_mutations(scene: &Scene, seed: u64) -> [f64; 6] {
             .par_iter()
             .enumerate()
             .map(|(c, s)| {
-                let ctx = Context {
-                    scene,
-                    params: &params,
-                    user_paths: &user_paths,
-                    max_edges: params.max_depth as usize + 1,
-                };
+                let ctx = Context::new(scene, &params, &user_paths);
                 let mut chain = Chain::new(ctx, s.clone());
                 let mut rng = Rng::for_task(seed, [stream::CHAIN, c as u64, 0]);
                 let mut tally = Tally::default();

@@ -100,12 +100,7 @@ fn chain_estimates(scene: &Scene, proposals: ProposalMix, mutations_per_chain: u
     let burn_in = mutations_per_chain / 8;
     let runs: Vec<([f64; BLOCKS * BLOCKS], [f64; FEATURES], Tally)> = (0..params.chains as u64)
         .map(|c| {
-            let ctx = Context {
-                scene,
-                params: &params,
-                user_paths: &user_paths,
-                max_edges: params.max_depth as usize + 1,
-            };
+            let ctx = Context::new(scene, &params, &user_paths);
             let mut chain = Chain::new(ctx, State::new(scene, starts[c as usize].clone()).unwrap());
             let mut rng = Rng::for_task(11, [99, c, 0]);
             let mut tally = Tally::default();
@@ -322,12 +317,7 @@ fn bd_reaches_the_light_seen_in_a_mirror_from_a_diffuse_path() {
     let mut tally = Tally::default();
     let mut proposed = 0u64;
     for c in 0..16u64 {
-        let ctx = Context {
-            scene: &scene,
-            params: &params,
-            user_paths: &user_paths,
-            max_edges: params.max_depth as usize + 1,
-        };
+        let ctx = Context::new(&scene, &params, &user_paths);
         let mut chain = Chain::new(ctx, State::new(&scene, diffuse.clone()).unwrap());
         let mut rng = Rng::for_task(3, [98, c, 0]);
         for _ in 0..150_000 {
@@ -390,6 +380,13 @@ facing = "-y"
 emission = { radiance = [10, 10, 10], two_sided = false }
 "#;
 
+fn open_box() -> Scene {
+    let file = std::path::Path::new("open-box.toml");
+    photon_bench::scene::load::load_scene_bytes(file, OPEN_BOX.as_bytes())
+        .unwrap()
+        .0
+}
+
 /// E over proposals Y ~ T(·|X) of g(Y) / T(Y|X) is ∫ g dμ over where T > 0: with g the
 /// indicator "the one new vertex lies on the floor", the floor area the proposal can reach.
 /// This checks a proposal's reported T against the distribution of its own candidates.
@@ -411,16 +408,9 @@ fn bd_and_ls_transition_densities_match_their_own_candidates() {
     use photon_bench::metropolis::proposals::{bidirectional, lens_subpath};
     use photon_bench::path_space::walk::trace_from;
     use photon_bench::path_space::{Vertex, pdf_eye_side};
-    let (scene, _) =
-        photon_bench::scene::load::load_scene_bytes(std::path::Path::new("open-box.toml"), OPEN_BOX.as_bytes())
-            .unwrap();
+    let scene = open_box();
     let params = MetropolisParams::default();
-    let ctx = Context {
-        scene: &scene,
-        params: &params,
-        user_paths: &[],
-        max_edges: 17,
-    };
+    let ctx = Context::new(&scene, &params, &[]);
     // X = L D E: light centre, a point on the back wall, the eye.
     let x0 = Vertex::light(&scene, 0, Vec3::new(0.2, 0.999, 0.5), -Vec3::Y);
     let x1 = trace_from(&scene, &x0, (Vec3::new(0.6, 0.5, 1.0) - x0.p).normalize()).unwrap();
@@ -469,16 +459,9 @@ fn pm_transition_density_matches_its_own_candidates() {
     use photon_bench::metropolis::proposals::photon_map;
     use photon_bench::path_space::walk::trace_from;
     use photon_bench::path_space::{Vertex, solid_angle_to_area};
-    let (scene, _) =
-        photon_bench::scene::load::load_scene_bytes(std::path::Path::new("open-box.toml"), OPEN_BOX.as_bytes())
-            .unwrap();
+    let scene = open_box();
     let params = MetropolisParams::default();
-    let ctx = Context {
-        scene: &scene,
-        params: &params,
-        user_paths: &[],
-        max_edges: 17,
-    };
+    let ctx = Context::new(&scene, &params, &[]);
     let x0 = Vertex::light(&scene, 0, Vec3::new(0.2, 0.999, 0.5), -Vec3::Y);
     let x1 = trace_from(&scene, &x0, (Vec3::new(0.5, 0.0, 0.6) - x0.p).normalize()).unwrap();
     let x2 = trace_from(&scene, &x1, (Vec3::new(0.5, 0.3, 1.0) - x1.p).normalize()).unwrap();

@@ -26,12 +26,25 @@ pub struct Candidate {
 }
 
 /// What the proposals share: the scene, the parameters, the user paths.
+#[derive(Clone, Copy)]
 pub struct Context<'a> {
     pub scene: &'a Scene,
     pub params: &'a MetropolisParams,
     pub user_paths: &'a [UserPathInfo],
     /// Largest number of edges of a path (max_depth + 1).
     pub max_edges: usize,
+}
+
+impl<'a> Context<'a> {
+    /// The context of chains with `params` on `scene`: paths of at most `max_depth` + 1 edges.
+    pub fn new(scene: &'a Scene, params: &'a MetropolisParams, user_paths: &'a [UserPathInfo]) -> Self {
+        Self {
+            scene,
+            params,
+            user_paths,
+            max_edges: params.max_depth as usize + 1,
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

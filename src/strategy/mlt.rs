@@ -130,12 +130,7 @@ impl Strategy for Mlt {
             };
         }
         let pixels = scene.camera.pixel_count();
-        let ctx = || Context {
-            scene,
-            params: &self.params,
-            user_paths: &prep.user_paths,
-            max_edges: self.params.max_depth as usize + 1,
-        };
+        let ctx = || Context::new(scene, &self.params, &prep.user_paths);
         while progress.next_sample < samples.end {
             let s = progress.next_sample;
             let splat = s >= samples.start;

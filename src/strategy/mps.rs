@@ -214,12 +214,7 @@ impl Strategy for Mps {
             seconds: start.elapsed().as_secs_f64(),
         }];
         let start = Instant::now();
-        let ctx = Context {
-            scene,
-            params: &self.chain,
-            user_paths: &user_paths,
-            max_edges: self.chain.max_depth as usize + 1,
-        };
+        let ctx = Context::new(scene, &self.chain, &user_paths);
         let importons = (self.params.photon_power == PhotonPower::Importon).then(|| {
             let estimate = EstimateParams {
                 nearest: self.params.importon_nearest,
@@ -477,12 +472,7 @@ fn sample_photons(
         .par_iter()
         .enumerate()
         .map(|(c, start)| {
-            let ctx = Context {
-                scene: ctx.scene,
-                params: ctx.params,
-                user_paths: ctx.user_paths,
-                max_edges: ctx.max_edges,
-            };
+            let ctx = *ctx;
             let scene = ctx.scene;
             let mut chain = Chain::new(ctx, start.clone());
             let mut rng = Rng::for_task(seed, [super::stream::CHAIN, c as u64, 0]);
