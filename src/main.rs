@@ -230,6 +230,7 @@ fn run_command(command: Command) -> Result<Status> {
                 rr_depth,
                 direct: parse_enum::<Direct>("--direct", &direct)?,
                 bsdf_sampling: parse_enum::<BsdfSampling>("--bsdf-sampling", &bsdf_sampling)?,
+                ..PathParams::default()
             };
             let scene = load_scene(&scene)?;
             let existing = reference::exr_path(&out, &scene.name);
