@@ -140,9 +140,10 @@ impl PhotonMap {
         result
     }
 
-    /// Sums the photons found (sorted by distance) into a density estimate.
+    /// Sums the photons found (in the kd-tree's heap order: `found[0]` is the farthest) into a
+    /// density estimate.
     fn density(&self, found: &[Neighbour], params: &EstimateParams, f_r: impl Fn(Vec3) -> Vec3) -> Estimate {
-        let Some(last) = found.last() else {
+        let Some(farthest) = found.first() else {
             return Estimate {
                 value: Vec3::ZERO,
                 photons: 0,
@@ -152,7 +153,7 @@ impl PhotonMap {
         let r = if found.len() < params.nearest && params.max_radius.is_finite() {
             params.max_radius
         } else {
-            last.dist2.sqrt()
+            farthest.dist2.sqrt()
         };
         if r <= 0.0 {
             // N photons at one point: a density of infinity is no estimate.

@@ -14,7 +14,7 @@
 //!
 //! Queries:
 //! - [`KdTree::k_nearest`]: the k nearest items within a maximum radius that pass a filter,
-//!   sorted by distance (a bounded max-heap during the search) — Jensen's N-nearest search with
+//!   the farthest first (a bounded max-heap during the search) — Jensen's N-nearest search with
 //!   the normal / back-side test of the radiance estimate as the filter.
 //! - [`KdTree::nearest_where`]: the nearest item passing a predicate — Christensen's lookup of
 //!   the nearest photon with a similar normal [Christensen 1999, §2.2].
@@ -260,8 +260,10 @@ impl<T: KdPoint> KdTree<T> {
     }
 
     /// The (up to) `k` nearest items within `max_radius` of `p` for which `filter` holds,
-    /// sorted by increasing distance, written to `out` (cleared first; reuse it to avoid an
-    /// allocation per query). Ties at equal distance are broken arbitrarily.
+    /// written to `out` (cleared first; reuse it to avoid an allocation per query) in max-heap
+    /// order: `out[0]` is the farthest, the rest in no useful order. Ties at equal distance are
+    /// broken arbitrarily but deterministically. Density estimates and Jensen's grid only sum
+    /// over the set, so they skip the sort of [`KdTree::k_nearest`].
     pub fn k_nearest_into(
         &self,
         p: Vec3,
@@ -288,13 +290,13 @@ impl<T: KdPoint> KdTree<T> {
                 max_r2
             }
         });
-        out.sort_unstable_by(|a, b| a.dist2.total_cmp(&b.dist2));
     }
 
-    /// [`KdTree::k_nearest_into`] into a new vector.
+    /// [`KdTree::k_nearest_into`] into a new vector, sorted by increasing distance.
     pub fn k_nearest(&self, p: Vec3, k: usize, max_radius: f32, filter: impl FnMut(&T) -> bool) -> Vec<Neighbour> {
         let mut out = Vec::new();
         self.k_nearest_into(p, k, max_radius, filter, &mut out);
+        out.sort_unstable_by(|a, b| a.dist2.total_cmp(&b.dist2));
         out
     }
 
@@ -383,7 +385,11 @@ mod tests {
             let filtered = q % 3 == 0;
             let keep = |v: &Vec3| !filtered || v.z > 0.7;
             tree.k_nearest_into(p, k, r, keep, &mut out);
-            let got: Vec<f32> = out.iter().map(|n| n.dist2).collect();
+            if let Some(first) = out.first() {
+                assert!(out.iter().all(|n| n.dist2 <= first.dist2), "heap order: the farthest first");
+            }
+            let mut got: Vec<f32> = out.iter().map(|n| n.dist2).collect();
+            got.sort_unstable_by(f32::total_cmp);
             let want = brute_force(pts, p, k, r, keep);
             assert_eq!(got, want, "query {q}: k {k}, r {r}, filtered {filtered}");
             let mut idx: Vec<u32> = out.iter().map(|n| n.index).collect();

@@ -60,6 +60,43 @@ fn cell_of(w: Vec3, m: usize, n: usize) -> usize {
     i * n + j
 }
 
+/// Polynomial atan2 in [0, 2π) (max error ≈ 1e-5 rad), for binning photons only. Where a
+/// photon lands decides nothing but the pdf's shape, so an error at a cell border cannot bias
+/// the estimator; `pdf` keeps the exact `cell_of`, which must agree with `sample`. libm's atan2
+/// was 9 % of a guided render's profile.
+#[inline]
+fn fast_phi(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = if ax > ay { (ay, ax) } else { (ax, ay) };
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let t = lo / hi;
+    let t2 = t * t;
+    // Minimax polynomial for atan on [0, 1].
+    let mut a = ((((0.0208351 * t2 - 0.085133) * t2 + 0.180141) * t2 - 0.3302995) * t2 + 0.999866) * t;
+    if ay > ax {
+        a = std::f32::consts::FRAC_PI_2 - a;
+    }
+    if x < 0.0 {
+        a = std::f32::consts::PI - a;
+    }
+    if y < 0.0 {
+        a = TAU - a;
+    }
+    a
+}
+
+/// The cell a photon's local direction is binned into (see [`fast_phi`]).
+#[inline]
+fn photon_cell(w: Vec3, m: usize, n: usize) -> usize {
+    let u = (1.0 - w.z * w.z).clamp(0.0, 1.0);
+    let v = fast_phi(w.y, w.x) / TAU;
+    let i = ((u * m as f32) as usize).min(m - 1);
+    let j = ((v * n as f32) as usize).min(n - 1);
+    i * n + j
+}
+
 impl PhotonGrid {
     /// Builds the grid from photons given as (incoming direction in the local frame, reflected
     /// flux luminance f_r ΔΦ). Directions below the surface (z ≤ 0) and non-positive or
@@ -76,7 +113,7 @@ impl PhotonGrid {
         let mut flux = vec![0.0f32; m * n];
         for (w, phi) in photons {
             if w.z > 0.0 && phi > 0.0 && phi.is_finite() {
-                flux[cell_of(w, m, n)] += phi;
+                flux[photon_cell(w, m, n)] += phi;
             }
         }
         let total: f32 = flux.iter().sum();
@@ -132,6 +169,30 @@ impl PhotonGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fast_phi_matches_atan2() {
+        let mut rng = crate::sampling::Rng::for_task(5, [0, 0, 0]);
+        let mut worst = 0.0f32;
+        for k in 0..100_000 {
+            let (x, y) = if k < 8 {
+                // The axes and diagonals exactly.
+                let a = k as f32 * std::f32::consts::FRAC_PI_4;
+                (a.cos(), a.sin())
+            } else {
+                (rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0)
+            };
+            let mut exact = y.atan2(x);
+            if exact < 0.0 {
+                exact += TAU;
+            }
+            let got = fast_phi(y, x);
+            assert!((0.0..=TAU).contains(&got), "{got} out of [0, 2π] at ({x}, {y})");
+            let d = (got - exact).abs();
+            worst = worst.max(d.min(TAU - d));
+        }
+        assert!(worst < 2e-5, "worst error {worst} rad");
+    }
     use crate::sampling::chi2::{CHI2_ALPHA, DirectionTest, chi2_test_directions};
     use crate::sampling::{Rng, sample_uniform_hemisphere};
 
