@@ -73,6 +73,7 @@
 //! type = "mesh"                     # Wavefront OBJ, triangulated; MTL materials are ignored
 //! material = "white"
 //! file = "meshes/bunny.obj"         # relative to this scene file
+//! face_normals = false              # optional: true ignores the OBJ's vertex normals
 //! transform = [{ matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] },
 //!              { rotate_x = -90 }, { translate = [0, 0.1, 0] }]
 //!
@@ -312,6 +313,10 @@ pub struct Mesh {
     pub material: String,
     /// Relative to the directory of the scene file.
     pub file: String,
+    /// Ignore the file's vertex normals and shade with the triangles' own normals (default
+    /// false). Mitsuba's `obj` option of the same name.
+    #[serde(default)]
+    pub face_normals: bool,
     pub transform: Option<TransformDesc>,
     pub emission: Option<EmissionDesc>,
 }
