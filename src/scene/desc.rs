@@ -1,4 +1,5 @@
-//! The scene file format: `scenes/*.toml`, read by [`super::load_scene`].
+//! The scene file format: `scenes/*.toml`, read by [`super::load_scene`]. Mitsuba 3 XML files
+//! (`scenes/*.xml`) are translated into these same types by [`super::mitsuba`].
 //!
 //! This module is the reference for the format. Every table rejects keys it does not know, so a
 //! misspelled parameter is an error, never a silent default. Lengths are in scene units (the
