@@ -218,7 +218,7 @@ pub fn srgb_encode(linear: f32) -> f32 {
 
 /// Linear `[0, 1]` to an 8-bit sRGB code value, rounded to nearest.
 #[inline]
-fn srgb8(linear: f32) -> u8 {
+pub(crate) fn srgb8(linear: f32) -> u8 {
     (srgb_encode(linear) * 255.0 + 0.5) as u8
 }
 

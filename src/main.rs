@@ -101,6 +101,14 @@ enum Command {
     },
     /// List the strategies with their parameters and defaults, and the shipped scenes.
     List,
+    /// Write a scene as an equivalent Mitsuba 3 XML scene (for cross-checking with Mitsuba 3).
+    ExportMitsuba {
+        /// The scene file, e.g. scenes/cornell-spheres.toml.
+        scene: PathBuf,
+        /// The XML file to write (default: <scene file stem>.xml in the current directory).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -315,6 +323,26 @@ fn run_command(command: Command) -> Result<Status> {
             println!("{}", run.join("plots").display());
             Ok(Status::Success)
         }
+        Command::ExportMitsuba { scene, output } => {
+            let output = output.unwrap_or_else(|| {
+                let stem = scene
+                    .file_stem()
+                    .map(|s| s.to_os_string())
+                    .unwrap_or_else(|| "scene".into());
+                PathBuf::from(stem).with_extension("xml")
+            });
+            if output == scene {
+                return Err(Error::new(format!(
+                    "{}: refusing to overwrite the scene being exported; pass --output",
+                    output.display()
+                )));
+            }
+            for w in photon_bench::scene::mitsuba::export::export_file(&scene, &output)? {
+                eprintln!("warning: {w}");
+            }
+            println!("{}", output.display());
+            Ok(Status::Success)
+        }
         Command::List => {
             println!("strategies:");
             for info in photon_bench::strategy::describe() {
@@ -323,12 +351,12 @@ fn run_command(command: Command) -> Result<Status> {
                     println!("    {k} = {v}");
                 }
             }
-            println!("scenes (scenes/*.toml):");
+            println!("scenes (scenes/*.toml, scenes/*.xml):");
             let mut names: Vec<String> = std::fs::read_dir("scenes")
                 .map(|d| {
                     d.filter_map(|e| e.ok())
                         .map(|e| e.path())
-                        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+                        .filter(|p| p.extension().is_some_and(|x| x == "toml" || x == "xml"))
                         .map(|p| p.display().to_string())
                         .collect()
                 })

@@ -14,6 +14,14 @@
 //! - **RMS relative luminance error** of Fan, Chenney & Lai 2005, "Metropolis Photon Sampling":
 //!   `√(mean_p ((Y(I) − Y(R)) / Y(R))²)` with Rec. 709 luminance `Y`, over the pixels whose
 //!   reference luminance is not (close to) zero.
+//! - **FLIP** (Andersson et al. 2020, "FLIP: A Difference Evaluator for Alternating Images"):
+//!   the mean of NVIDIA's LDR-FLIP error map (0 identical … 1 most different), through the
+//!   `nv-flip` crate (NVIDIA's C++ implementation), at its default 67 pixels per degree (a
+//!   0.7 m wide 4K monitor seen from 0.7 m). **Decision: tone mapping.** LDR-FLIP compares
+//!   display images, so both images are mapped exactly as the sRGB previews next to each EXR
+//!   are ([`crate::film::write_png`] at exposure 0): linear values clamped to [0, 1], the sRGB
+//!   transfer function, rounded to 8 bits. FLIP therefore judges the picture a reader sees;
+//!   errors above 1 (a saturated light) are invisible to it, which the other metrics cover.
 //! - **efficiency** = `1 / (MSE · time)` (Veach 1997, §2.5 "efficiency of an estimator"; Pharr,
 //!   Jakob & Humphreys, PBRT 4th ed., §2.1.4), higher is better.
 
@@ -58,6 +66,8 @@ pub struct Metrics {
     /// Pixels left out of `rms_rel_lum` because `Y(R) ≤ 0` or
     /// `Y(R) < LUMINANCE_EXCLUSION_FRACTION · mean_p Y(R)`.
     pub rms_rel_lum_excluded: u64,
+    /// Mean LDR-FLIP error of the tone-mapped images, in [0, 1] ([`flip`]).
+    pub flip: f64,
 }
 
 /// Number of pixels the trimmed metrics drop out of `n_pixels`: exactly
@@ -122,7 +132,27 @@ pub fn compare(image: &Image, reference: &Image) -> Result<Metrics> {
         rel_mse_trimmed,
         rms_rel_lum,
         rms_rel_lum_excluded,
+        flip: flip(image, reference),
     })
+}
+
+/// Mean LDR-FLIP error of `image` against `reference` (same size, checked by the caller),
+/// both tone-mapped as the sRGB previews are (module documentation).
+pub fn flip(image: &Image, reference: &Image) -> f64 {
+    let ldr = |im: &Image| -> Vec<u8> {
+        im.pixels
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(crate::film::srgb8)
+            .collect()
+    };
+    let (w, h) = (image.width, image.height);
+    let map = nv_flip::flip(
+        nv_flip::FlipImageRgb8::with_data(w, h, &ldr(reference)),
+        nv_flip::FlipImageRgb8::with_data(w, h, &ldr(image)),
+        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+    );
+    f64::from(nv_flip::FlipPool::from_image(&map).mean())
 }
 
 /// Efficiency of an estimator, `1 / (MSE · time)` (Veach 1997, §2.5): halving either the error
@@ -179,6 +209,67 @@ mod tests {
             height,
             pixels: pixels.iter().map(|&p| Vec3::from(p)).collect(),
         }
+    }
+
+    /// A 48 × 32 test pattern: a gradient with a bright square and a dark stripe.
+    fn pattern() -> Image {
+        let px: Vec<[f32; 3]> = (0..48 * 32)
+            .map(|i| {
+                let (x, y) = ((i % 48) as f32, (i / 48) as f32);
+                let v = if (10.0..20.0).contains(&x) && (8.0..18.0).contains(&y) {
+                    0.9
+                } else {
+                    0.05 + x / 96.0
+                };
+                let v = if (26.0..28.0).contains(&y) { 0.01 } else { v };
+                [v, 0.6 * v, 0.3 + 0.2 * (y / 32.0)]
+            })
+            .collect();
+        image(48, 32, &px)
+    }
+
+    fn noisy(base: &Image, amplitude: f32, seed: u64) -> Image {
+        let mut rng = crate::sampling::Rng::for_task(seed, [0, 0, 0]);
+        Image {
+            pixels: base
+                .pixels
+                .iter()
+                .map(|p| (*p * (1.0 + amplitude * (2.0 * rng.uniform() - 1.0))).max(Vec3::ZERO))
+                .collect(),
+            ..base.clone()
+        }
+    }
+
+    #[test]
+    fn flip_is_zero_for_identical_images_and_grows_with_the_noise() {
+        let r = pattern();
+        assert_eq!(flip(&r, &r), 0.0);
+        let errors: Vec<f64> = [0.02, 0.1, 0.3, 0.8]
+            .iter()
+            .map(|&a| flip(&noisy(&r, a, 7), &r))
+            .collect();
+        assert!(
+            errors.windows(2).all(|w| 0.0 < w[0] && w[0] < w[1] && w[1] <= 1.0),
+            "{errors:?}"
+        );
+        // It is part of every comparison.
+        assert_eq!(compare(&noisy(&r, 0.3, 7), &r).unwrap().flip, errors[2]);
+    }
+
+    #[test]
+    fn flip_sees_the_tone_mapped_images() {
+        // Above 1 the previews saturate: a brighter light that stays above 1 looks the same.
+        let bright = image(8, 8, &[[2.0, 3.0, 4.0]; 64]);
+        let brighter = image(8, 8, &[[5.0, 6.0, 7.0]; 64]);
+        assert_eq!(flip(&brighter, &bright), 0.0);
+        // Black against white differs most: no edges, so the colour error alone (Andersson et
+        // al. 2020, eq. 4 with ΔE_f = 0), and it is large.
+        let black = image(8, 8, &[[0.0; 3]; 64]);
+        let white = image(8, 8, &[[1.0; 3]; 64]);
+        let e = flip(&black, &white);
+        assert!(e > 0.5 && e <= 1.0, "{e}");
+        // A single pixel works (the filters are wider than the image).
+        assert!(flip(&image(1, 1, &[[0.2; 3]]), &image(1, 1, &[[0.3; 3]])) > 0.0);
     }
 
     fn grey(width: u32, height: u32, values: &[f32]) -> Image {

@@ -236,6 +236,14 @@ pub fn write_summary(
     for scene in distinct(rows, |r| &r.scene) {
         let _ = writeln!(md, "## {scene}\n");
         for metric in METRICS {
+            // A column the run's files did not record (written before `flip` existed).
+            if rows
+                .iter()
+                .filter(|r| r.scene == scene)
+                .all(|r| (metric.get)(r).is_nan())
+            {
+                continue;
+            }
             let _ = writeln!(md, "### {}\n", metric.name);
             let _ = writeln!(
                 md,

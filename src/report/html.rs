@@ -98,7 +98,7 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
         let _ = writeln!(
             h,
             "<h3>Largest checkpoints</h3>\n<table><tr><th>strategy</th><th>budget</th><th>n</th><th>MSE</th>\
-             <th>{:.0} % CI</th><th>relMSE</th><th>spp</th><th>seconds</th></tr>",
+             <th>{:.0} % CI</th><th>relMSE</th><th>FLIP</th><th>spp</th><th>seconds</th></tr>",
             CONFIDENCE * 100.0
         );
         for g in largest.iter().flatten() {
@@ -106,12 +106,13 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
             let ci = mse.ci.map_or("–".into(), |(lo, hi)| format!("[{lo:.3e}, {hi:.3e}]"));
             let _ = writeln!(
                 h,
-                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4e}</td><td>{ci}</td><td>{:.4e}</td><td>{:.0}</td><td>{:.3}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4e}</td><td>{ci}</td><td>{:.4e}</td><td>{:.4}</td><td>{:.0}</td><td>{:.3}</td></tr>",
                 esc(g.strategy),
                 esc(&g.budget_label()),
                 mse.n,
                 mse.mean,
                 super::stats::mean(&g.values(|r| r.rel_mse)),
+                super::stats::mean(&g.values(|r| r.flip)),
                 super::stats::mean(&g.values(|r| r.spp as f64)),
                 super::stats::mean(&g.values(|r| r.total_s)),
             );

@@ -56,10 +56,19 @@ pub struct Row {
     /// EXR image of this checkpoint, relative to the run directory.
     pub image: String,
     /// What the strategy counted ([`crate::strategy::Strategy::counters`]) as `name=value`,
-    /// `;`-separated; empty when it counts nothing. The last column, absent from files written
-    /// before it existed (they read as empty).
+    /// `;`-separated; empty when it counts nothing. Absent from files written before it
+    /// existed (they read as empty).
     #[serde(default)]
     pub counters: String,
+    /// Mean LDR-FLIP error of the tone-mapped image against the reference
+    /// ([`crate::metrics::flip`]). The last column; files written before it existed read as
+    /// NaN, and reports leave a metric out where it is NaN on every row.
+    #[serde(default = "not_recorded")]
+    pub flip: f64,
+}
+
+fn not_recorded() -> f64 {
+    f64::NAN
 }
 
 /// `budget` of a checkpoint of an equal-samples render (`spp = [...]`).
@@ -106,6 +115,11 @@ pub const METRICS: &[Metric] = &[
         name: "rms_rel_lum",
         error: true,
         get: |r| r.rms_rel_lum,
+    },
+    Metric {
+        name: "flip",
+        error: true,
+        get: |r| r.flip,
     },
     Metric {
         name: "spp",
@@ -243,6 +257,33 @@ pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn files_written_before_the_flip_column_load_and_compare_without_it() {
+        // The committed baseline predates both optional columns.
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/baseline/metrics.csv");
+        let old = read_csv(&path).unwrap();
+        assert!(!old.is_empty() && old.iter().all(|r| r.flip.is_nan() && r.counters.is_empty()));
+        let new: Vec<Row> = old
+            .iter()
+            .map(|r| Row {
+                flip: 0.25,
+                ..r.clone()
+            })
+            .collect();
+        let metrics_of = |c: &crate::report::compare::Comparison| {
+            let mut m: Vec<&str> = c.lines.iter().map(|l| l.metric).collect();
+            m.dedup();
+            m
+        };
+        let mixed = crate::report::compare::compare(&old, &new).unwrap();
+        assert!(!metrics_of(&mixed).contains(&"flip") && metrics_of(&mixed).contains(&"mse"));
+        assert!(metrics_of(&crate::report::compare::compare(&new, &new).unwrap()).contains(&"flip"));
+        // Written and read again, the column is there.
+        let dir = tempfile::tempdir().unwrap();
+        write_csv(&new, &dir.path().join("m.csv")).unwrap();
+        assert_eq!(read_csv(&dir.path().join("m.csv")).unwrap()[0].flip, 0.25);
+    }
 
     #[test]
     fn counters_round_trip_bit_for_bit() {

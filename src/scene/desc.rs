@@ -1,4 +1,5 @@
-//! The scene file format: `scenes/*.toml`, read by [`super::load_scene`].
+//! The scene file format: `scenes/*.toml`, read by [`super::load_scene`]. Mitsuba 3 XML files
+//! (`scenes/*.xml`) are translated into these same types by [`super::mitsuba`].
 //!
 //! This module is the reference for the format. Every table rejects keys it does not know, so a
 //! misspelled parameter is an error, never a silent default. Lengths are in scene units (the
@@ -73,6 +74,7 @@
 //! type = "mesh"                     # Wavefront OBJ, triangulated; MTL materials are ignored
 //! material = "white"
 //! file = "meshes/bunny.obj"         # relative to this scene file
+//! face_normals = false              # optional: true ignores the OBJ's vertex normals
 //! transform = [{ matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] },
 //!              { rotate_x = -90 }, { translate = [0, 0.1, 0] }]
 //!
@@ -312,6 +314,10 @@ pub struct Mesh {
     pub material: String,
     /// Relative to the directory of the scene file.
     pub file: String,
+    /// Ignore the file's vertex normals and shade with the triangles' own normals (default
+    /// false). Mitsuba's `obj` option of the same name.
+    #[serde(default)]
+    pub face_normals: bool,
     pub transform: Option<TransformDesc>,
     pub emission: Option<EmissionDesc>,
 }

@@ -56,12 +56,17 @@ pub struct LoadStats {
     pub degenerate_triangles_skipped: usize,
     /// Files read besides the scene file (meshes and their MTL libraries).
     pub files_read: Vec<PathBuf>,
+    /// Approximations made while reading a Mitsuba scene, one line each (empty for TOML).
+    pub warnings: Vec<String>,
 }
 
 /// Loads and validates a scene file. Skipped degenerate mesh triangles are reported on stderr;
 /// use [`load_scene_with_stats`] to handle them yourself.
 pub fn load_scene(path: &Path) -> Result<Scene> {
     let (scene, stats) = load_scene_with_stats(path)?;
+    for w in &stats.warnings {
+        eprintln!("warning: {w}");
+    }
     if stats.degenerate_triangles_skipped > 0 {
         eprintln!(
             "warning: {}: skipped {} degenerate mesh triangle(s)",
@@ -91,20 +96,35 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
             e.valid_up_to()
         ))
     })?;
-    let desc = parse_desc(&ctx, text)?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    // Mitsuba scenes become the same description; only how shapes are named in errors and
+    // the warnings differ. The hash below covers the XML bytes and meshes as for TOML.
+    let (desc, shape_labels, warnings) = if is_mitsuba(path) {
+        let imported = super::mitsuba::import(&ctx.file, &dir, text)?;
+        (imported.desc, Some(imported.shape_labels), imported.warnings)
+    } else {
+        (parse_desc(&ctx, text)?, None, Vec::new())
+    };
 
     let mut b = Builder {
         ctx: &ctx,
-        dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        dir,
         primitives: Vec::new(),
         attrs: Vec::new(),
         hashed: vec![bytes.to_vec()],
-        stats: LoadStats::default(),
+        stats: LoadStats {
+            warnings,
+            ..LoadStats::default()
+        },
     };
     let camera = camera(&ctx, &desc.camera)?;
     let (materials, material_index) = materials(&ctx, &desc.materials)?;
     for (i, shape) in desc.shapes.iter().enumerate() {
-        b.shape(&format!("shapes[{i}]"), shape, &material_index)?;
+        let field = match &shape_labels {
+            Some(labels) => labels[i].clone(),
+            None => format!("shapes[{i}]"),
+        };
+        b.shape(&field, shape, &material_index)?;
     }
     if !b
         .attrs
@@ -160,6 +180,40 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
         user_paths,
     )?;
     Ok((scene, stats))
+}
+
+/// Whether a scene file is a Mitsuba 3 XML scene (by its extension, `.xml`).
+pub fn is_mitsuba(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// Reads and deserializes a TOML scene file's description without building the scene.
+pub(crate) fn read_desc(path: &Path) -> Result<SceneDesc> {
+    let ctx = Ctx {
+        file: path.display().to_string(),
+    };
+    let bytes =
+        std::fs::read(path).map_err(|e| Error::new(format!("{}: cannot read the scene file: {e}", path.display())))?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        ctx.whole(format!(
+            "not valid UTF-8 (first bad byte at offset {})",
+            e.valid_up_to()
+        ))
+    })?;
+    parse_desc(&ctx, text)
+}
+
+/// A shape's transform as one validated affine map (for the Mitsuba exporter); `file` and
+/// `field` name it in errors.
+pub(crate) fn shape_transform(file: &str, field: &str, t: Option<&TransformDesc>) -> Result<DAffine3> {
+    let ctx = Ctx { file: file.to_string() };
+    transform(&ctx, field, t).map(|x| x.m)
+}
+
+/// A quad's corner and edges, whichever form it is written in (for the Mitsuba exporter).
+pub(crate) fn quad_corner_edges(file: &str, field: &str, q: &desc::Quad) -> Result<(DVec3, DVec3, DVec3)> {
+    let ctx = Ctx { file: file.to_string() };
+    quad_frame(&ctx, field, q)
 }
 
 /// A name that can be used as (part of) a file name in any directory: non-empty, no path
@@ -1017,7 +1071,7 @@ impl Builder<'_> {
                 ));
             }
             let n_vertices = pos.len() / 3;
-            let has_normals = !mesh.normals.is_empty() && mesh.normals.len() == pos.len();
+            let has_normals = !m.face_normals && !mesh.normals.is_empty() && mesh.normals.len() == pos.len();
             let vertex = |i: usize| DVec3::new(pos[3 * i] as f64, pos[3 * i + 1] as f64, pos[3 * i + 2] as f64);
             let normal = |i: usize| {
                 let n = &mesh.normals;

@@ -2,10 +2,12 @@
 //! a [`Scene`]; nothing mutates it after loading.
 //!
 //! `load` reads `scenes/*.toml` (format documented in the README and in [`desc`]) with OBJ/MTL
-//! meshes through tobj, validates every field, and assembles the runtime scene here.
+//! meshes through tobj, validates every field, and assembles the runtime scene here. Mitsuba 3
+//! XML scenes (`scenes/*.xml`) are translated into the same description by [`mitsuba`] first.
 
 pub mod desc;
 pub mod load;
+pub mod mitsuba;
 
 pub use load::load_scene;
 

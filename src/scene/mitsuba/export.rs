@@ -1,0 +1,259 @@
+//! `bench export-mitsuba`: a scene description written as an equivalent Mitsuba 3 XML scene.
+//!
+//! Decisions, each chosen so that Mitsuba 3 renders the same image as our `path`:
+//! - the camera is a `perspective` sensor with `fov_axis="y"` (our `fov_y` as is) and a
+//!   `lookat`; the film is an `hdrfilm` with a `box` filter, as our film;
+//! - reflecting materials are wrapped in `twosided`, since ours reflect on both sides and
+//!   Mitsuba's are black from behind; a `mirror` is a `conductor` with `material="none"`; a
+//!   `dielectric` gets `ext_ior = 1` (Mitsuba's default outside is air, 1.000277);
+//! - a `ward` with no diffuse part becomes a `roughconductor` (Beckmann, α as Ward's α), with a
+//!   warning: the two lobes are alike but not equal. `phong`, `ward` with a diffuse part and
+//!   `diffuse_transmission` have no Mitsuba 3 counterpart and are refused;
+//! - a quad is a `rectangle` and a box a `cube`, with the `to_world` matrix that maps Mitsuba's
+//!   [−1, 1]² (or ³) onto them (our transform included), so the triangles are ours; spheres
+//!   keep `center` and `radius`; meshes keep their OBJ file (made absolute when the XML goes
+//!   to another directory) with `face_normals="true"` when the OBJ has no normals (Mitsuba
+//!   would smooth them; we shade flat);
+//! - two-sided emission is refused (Mitsuba's area lights emit from the front only);
+//! - user paths (Metropolis photon sampling) have no Mitsuba form and are left out, with a
+//!   warning. No integrator is written: the caller (e.g. `scripts/crosscheck_mitsuba.py`)
+//!   chooses it.
+//!
+//! Reading the file back ([`super::import`]) gives the same scene: same triangles and spheres to
+//! float precision, same camera rays, same materials (`tests/mitsuba.rs`).
+
+use super::super::desc::{MaterialDesc, SceneDesc, ShapeDesc, Triple};
+use super::super::load::{load_scene_with_stats, quad_corner_edges, read_desc, shape_transform};
+use crate::error::{Context, Error, Result};
+use glam::{DAffine3, DMat3, DMat4, DVec3};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// Writes `scene` (a TOML or Mitsuba scene file) as Mitsuba 3 XML to `out`; returns the
+/// warnings (approximations and what was left out), one line each.
+pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
+    // The scene must load as it is: export never writes what `bench run` would refuse.
+    let (_, stats) = load_scene_with_stats(scene)?;
+    let desc = if super::super::load::is_mitsuba(scene) {
+        let text = std::fs::read_to_string(scene).context(scene.display())?;
+        let dir = scene.parent().unwrap_or(Path::new(""));
+        super::import(&scene.display().to_string(), dir, &text)?.desc
+    } else {
+        read_desc(scene)?
+    };
+    let out_dir = out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let (xml, mut warnings) = to_xml(&desc, scene, out_dir)?;
+    warnings.splice(0..0, stats.warnings);
+    std::fs::write(out, xml).context(out.display())?;
+    Ok(warnings)
+}
+
+/// The XML text of a scene description read from `scene`; mesh paths are written relative to
+/// `out_dir` when it is the scene's own directory, absolute otherwise.
+pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String, Vec<String>)> {
+    let file = scene.display().to_string();
+    let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
+    let mut warnings = Vec::new();
+    let mut x = String::new();
+    let c = &desc.camera;
+    let _ = writeln!(x, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
+    let _ = writeln!(
+        x,
+        "<!-- Exported by photon-bench from {}. Mitsuba 3, scalar_rgb; our path max_depth N is \
+         Mitsuba's N + 1. -->",
+        escape(&file.replace("--", "-"))
+    );
+    let _ = writeln!(x, "<scene version=\"3.0.0\">");
+    let _ = writeln!(x, "    <sensor type=\"perspective\">");
+    let _ = writeln!(x, "        <string name=\"fov_axis\" value=\"y\"/>");
+    let _ = writeln!(x, "        <float name=\"fov\" value=\"{}\"/>", c.fov_y);
+    let _ = writeln!(x, "        <transform name=\"to_world\">");
+    let _ = writeln!(
+        x,
+        "            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>",
+        nums(&c.eye.0),
+        nums(&c.look_at.0),
+        nums(&c.up.0)
+    );
+    let _ = writeln!(x, "        </transform>");
+    let _ = writeln!(x, "        <film type=\"hdrfilm\">");
+    let _ = writeln!(x, "            <integer name=\"width\" value=\"{}\"/>", c.resolution[0]);
+    let _ = writeln!(
+        x,
+        "            <integer name=\"height\" value=\"{}\"/>",
+        c.resolution[1]
+    );
+    let _ = writeln!(x, "            <rfilter type=\"box\"/>");
+    let _ = writeln!(x, "            <string name=\"pixel_format\" value=\"rgb\"/>");
+    let _ = writeln!(x, "        </film>");
+    let _ = writeln!(x, "    </sensor>");
+
+    for (name, m) in &desc.materials {
+        let field = format!("materials.{name}");
+        let id = escape(name);
+        let twosided = |inner: String| format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n");
+        let bsdf = match m {
+            MaterialDesc::Diffuse(d) => twosided(format!(
+                "        <bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"{}\"/>\n        </bsdf>\n",
+                nums(&d.reflectance.0)
+            )),
+            MaterialDesc::Mirror(d) => twosided(format!(
+                "        <bsdf type=\"conductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
+                 <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
+                nums(&d.reflectance.0)
+            )),
+            MaterialDesc::Dielectric(d) => format!(
+                "    <bsdf type=\"dielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
+                 <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n",
+                d.ior
+            ),
+            MaterialDesc::Ward(w) if w.diffuse.0 == [0.0; 3] => {
+                warnings.push(format!(
+                    "{file}: {field}: ward written as Mitsuba's roughconductor (Beckmann, same alpha): \
+                     similar, not equal lobes"
+                ));
+                twosided(format!(
+                    "        <bsdf type=\"roughconductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
+                     <string name=\"distribution\" value=\"beckmann\"/>\n            \
+                     <float name=\"alpha_u\" value=\"{}\"/>\n            <float name=\"alpha_v\" value=\"{}\"/>\n            \
+                     <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
+                    w.alpha_x,
+                    w.alpha_y,
+                    nums(&w.specular.0)
+                ))
+            }
+            MaterialDesc::Ward(_) => {
+                return Err(err(&field, "a ward with a diffuse part has no Mitsuba 3 equivalent"));
+            }
+            MaterialDesc::Phong(_) => return Err(err(&field, "phong has no Mitsuba 3 equivalent")),
+            MaterialDesc::DiffuseTransmission(_) => {
+                return Err(err(&field, "diffuse_transmission has no Mitsuba 3 equivalent"));
+            }
+        };
+        x.push_str(&bsdf);
+    }
+
+    let scene_dir = scene.parent().unwrap_or(Path::new(""));
+    for (i, shape) in desc.shapes.iter().enumerate() {
+        let field = format!("shapes[{i}]");
+        let (material, transform, emission) = shape.common();
+        let t = shape_transform(&file, &field, transform)?;
+        let mut props = String::new();
+        let kind = match shape {
+            ShapeDesc::Quad(q) => {
+                let (corner, u, v) = quad_corner_edges(&file, &field, q)?;
+                // [−1, 1]² onto corner + s·u + t·v; the third column only has to keep the map
+                // invertible and orientation-preserving (u × v is the front side in both).
+                let n = u.cross(v).normalize() * (0.25 * u.length() * v.length()).sqrt();
+                let q = DAffine3::from_mat3_translation(DMat3::from_cols(0.5 * u, 0.5 * v, n), corner + 0.5 * (u + v));
+                props.push_str(&matrix(t * q));
+                "rectangle"
+            }
+            ShapeDesc::Box(b) => {
+                let (lo, hi) = match (b.min, b.max, b.center, b.size) {
+                    (Some(lo), Some(hi), _, _) => (dvec(lo), dvec(hi)),
+                    (_, _, Some(c), Some(s)) => (dvec(c) - 0.5 * dvec(s), dvec(c) + 0.5 * dvec(s)),
+                    _ => return Err(err(&field, "a box needs either `min` and `max` or `center` and `size`")),
+                };
+                let q = DAffine3::from_mat3_translation(DMat3::from_diagonal(0.5 * (hi - lo)), 0.5 * (lo + hi));
+                props.push_str(&matrix(t * q));
+                "cube"
+            }
+            ShapeDesc::Sphere(s) => {
+                let _ = writeln!(
+                    props,
+                    "        <point name=\"center\" value=\"{}\"/>",
+                    nums(&s.center.0)
+                );
+                let _ = writeln!(props, "        <float name=\"radius\" value=\"{}\"/>", s.radius);
+                if transform.is_some() {
+                    props.push_str(&matrix(t));
+                }
+                "sphere"
+            }
+            ShapeDesc::Mesh(m) => {
+                let path = scene_dir.join(&m.file);
+                let same_dir = match (scene_dir.canonicalize(), out_dir.canonicalize()) {
+                    (Ok(a), Ok(b)) => a == b,
+                    _ => false,
+                };
+                let written: PathBuf = if same_dir {
+                    PathBuf::from(&m.file)
+                } else {
+                    path.canonicalize().unwrap_or(path.clone())
+                };
+                let text = std::fs::read(&path).map_err(|e| err(&format!("{field}.file"), &format!("{e}")))?;
+                let has_normals = text
+                    .split(|&b| b == b'\n')
+                    .any(|l| l.trim_ascii_start().starts_with(b"vn "));
+                let _ = writeln!(
+                    props,
+                    "        <string name=\"filename\" value=\"{}\"/>",
+                    escape(&written.display().to_string())
+                );
+                if m.face_normals || !has_normals {
+                    let _ = writeln!(props, "        <boolean name=\"face_normals\" value=\"true\"/>");
+                }
+                if transform.is_some() {
+                    props.push_str(&matrix(t));
+                }
+                "obj"
+            }
+        };
+        let _ = writeln!(x, "    <shape type=\"{kind}\">");
+        x.push_str(&props);
+        let _ = writeln!(x, "        <ref id=\"{}\"/>", escape(material));
+        if let Some(e) = emission {
+            if e.two_sided {
+                return Err(err(
+                    &format!("{field}.emission.two_sided"),
+                    "Mitsuba 3's area lights emit from the front side only; two-sided emission cannot be exported",
+                ));
+            }
+            let _ = writeln!(
+                x,
+                "        <emitter type=\"area\">\n            <rgb name=\"radiance\" value=\"{}\"/>\n        </emitter>",
+                nums(&e.radiance.0)
+            );
+        }
+        let _ = writeln!(x, "    </shape>");
+    }
+    let _ = writeln!(x, "</scene>");
+    if !desc.user_paths.is_empty() {
+        warnings.push(format!(
+            "{file}: user_paths: left out ({} user paths; Mitsuba 3 scenes have no such element)",
+            desc.user_paths.len()
+        ));
+    }
+    Ok((x, warnings))
+}
+
+fn dvec(v: Triple) -> DVec3 {
+    DVec3::from_array(v.0)
+}
+
+/// Numbers as Rust prints f64: the shortest text that reads back to the same value.
+fn nums(v: &[f64]) -> String {
+    v.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(", ")
+}
+
+/// A `to_world` holding one row-major matrix.
+fn matrix(m: DAffine3) -> String {
+    let m = DMat4::from(m);
+    let rows: Vec<String> = (0..4).map(|i| nums(&m.row(i).to_array())).collect();
+    format!(
+        "        <transform name=\"to_world\">\n            <matrix value=\"{}\"/>\n        </transform>\n",
+        rows.join(", ")
+    )
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('\'', "&apos;")
+}

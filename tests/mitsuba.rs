@@ -1,0 +1,513 @@
+//! Mitsuba 3 XML scenes: export then import gives the scene back (every shipped scene, and
+//! random scenes), hand-written XML means what Mitsuba means by it, and bad XML is refused
+//! with one line naming the file, the element and what was expected.
+
+use glam::{Vec2, Vec3};
+use photon_bench::geometry::Primitive;
+use photon_bench::scene::Scene;
+use photon_bench::scene::load::load_scene_with_stats;
+use photon_bench::scene::mitsuba::export::export_file;
+use proptest::prelude::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn shipped_toml_scenes() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    v
+}
+
+fn close(a: Vec3, b: Vec3, scale: f32) -> bool {
+    (a - b).abs().max_element() <= 2e-6 * scale.max(1.0)
+}
+
+/// Asserts that two scenes are the same scene: triangles and spheres in the same order to
+/// float precision, the same materials and emission per primitive, the same camera rays.
+fn assert_same_scene(a: &Scene, b: &Scene, what: &str) {
+    let scale = a
+        .primitives
+        .iter()
+        .map(|p| match p {
+            Primitive::Triangle(v) => v.iter().map(|x| x.abs().max_element()).fold(0.0, f32::max),
+            Primitive::Sphere { center, radius } => center.abs().max_element() + radius,
+        })
+        .fold(0.0, f32::max);
+    assert_eq!(a.primitives.len(), b.primitives.len(), "{what}: primitive count");
+    for (i, (pa, pb)) in a.primitives.iter().zip(&b.primitives).enumerate() {
+        match (pa, pb) {
+            (Primitive::Triangle(x), Primitive::Triangle(y)) => {
+                for k in 0..3 {
+                    assert!(close(x[k], y[k], scale), "{what}: triangle {i}: {x:?} vs {y:?}");
+                }
+            }
+            (Primitive::Sphere { center: c1, radius: r1 }, Primitive::Sphere { center: c2, radius: r2 }) => {
+                assert!(close(*c1, *c2, scale), "{what}: sphere {i} centre {c1} vs {c2}");
+                assert!(
+                    (r1 - r2).abs() <= 2e-6 * r1.max(1.0),
+                    "{what}: sphere {i} radius {r1} vs {r2}"
+                );
+            }
+            _ => panic!("{what}: primitive {i} changed kind: {pa:?} vs {pb:?}"),
+        }
+        let (ma, mb) = (&a.attrs[i], &b.attrs[i]);
+        let (na, nb) = (&a.materials[ma.material as usize], &b.materials[mb.material as usize]);
+        assert_eq!(na.name, nb.name, "{what}: primitive {i} material");
+        assert_eq!(na.bsdf, nb.bsdf, "{what}: material {}", na.name);
+        assert_eq!(ma.emission, mb.emission, "{what}: primitive {i} emission");
+        assert_eq!(
+            ma.normals.is_some(),
+            mb.normals.is_some(),
+            "{what}: primitive {i} normals"
+        );
+    }
+    assert_eq!(a.lights.len(), b.lights.len(), "{what}: lights");
+    let (ca, cb) = (&a.camera, &b.camera);
+    assert_eq!((ca.width, ca.height), (cb.width, cb.height), "{what}: resolution");
+    for (u, v) in [(0.0, 0.0), (0.5, 0.5), (1.0, 0.25), (0.1, 0.9), (1.0, 1.0)] {
+        let raster = Vec2::new(u * ca.width as f32, v * ca.height as f32);
+        let (ra, rb) = (ca.generate_ray(raster), cb.generate_ray(raster));
+        assert!(close(ra.o, rb.o, scale), "{what}: camera origin {} vs {}", ra.o, rb.o);
+        assert!(
+            (ra.d - rb.d).length() < 1e-5,
+            "{what}: ray at {raster}: {} vs {}",
+            ra.d,
+            rb.d
+        );
+    }
+}
+
+fn round_trip(scene: &Path, dir: &Path) -> (Scene, Scene, Vec<String>) {
+    let (a, _) = load_scene_with_stats(scene).unwrap();
+    let xml = dir.join(format!("{}.xml", scene.file_stem().unwrap().to_string_lossy()));
+    let mut warnings = export_file(scene, &xml).unwrap();
+    let (b, stats) = load_scene_with_stats(&xml).unwrap_or_else(|e| panic!("{}: {e}", xml.display()));
+    warnings.extend(stats.warnings);
+    (a, b, warnings)
+}
+
+#[test]
+fn every_shipped_scene_survives_export_and_import() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = shipped_toml_scenes();
+    assert!(scenes.len() >= 5);
+    for scene in scenes {
+        let (a, b, warnings) = round_trip(&scene, dir.path());
+        assert_same_scene(&a, &b, &scene.display().to_string());
+        // Only the user paths (which Mitsuba cannot hold) may be reported.
+        assert!(warnings.iter().all(|w| w.contains("user_paths")), "{warnings:?}");
+        assert_eq!(b.user_paths.len(), 0);
+    }
+}
+
+#[test]
+fn a_second_export_of_the_imported_scene_is_the_same_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+    let once = dir.path().join("once.xml");
+    let twice = dir.path().join("twice.xml");
+    export_file(&scene, &once).unwrap();
+    export_file(&once, &twice).unwrap();
+    let (a, _) = load_scene_with_stats(&once).unwrap();
+    let (b, _) = load_scene_with_stats(&twice).unwrap();
+    assert_same_scene(&a, &b, "re-export");
+}
+
+#[test]
+fn meshes_keep_their_file_and_their_normals_through_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    std::fs::create_dir(root.join("scenes")).unwrap();
+    std::fs::write(
+        root.join("scenes/flat.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        root.join("scenes/smooth.obj"),
+        "v 0 0 1\nv 1 0 1\nv 0 1 1\nvn 0 0 1\nvn 0.1 0 1\nvn 0 0.1 1\nf 1//1 2//2 3//3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        root.join("scenes/m.toml"),
+        r#"
+[camera]
+eye = [0.5, 0.5, 4]
+look_at = [0.5, 0.5, 0]
+fov_y = 30
+resolution = [8, 6]
+[materials.w]
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[shapes]]
+type = "mesh"
+material = "w"
+file = "flat.obj"
+transform = { rotate_y = 10, translate = [0, 0.1, 0] }
+emission = { radiance = [1, 2, 3] }
+[[shapes]]
+type = "mesh"
+material = "w"
+file = "smooth.obj"
+"#,
+    )
+    .unwrap();
+    // Into the scene's directory (relative file names) and elsewhere (absolute ones).
+    for out in [root.join("scenes"), root.to_path_buf()] {
+        let (a, b, warnings) = round_trip(&root.join("scenes/m.toml"), &out);
+        assert_same_scene(&a, &b, "mesh scene");
+        assert!(warnings.is_empty(), "{warnings:?}");
+        assert!(b.attrs[2].normals.is_some() && b.attrs[0].normals.is_none());
+    }
+    let xml = std::fs::read_to_string(root.join("scenes/m.xml")).unwrap();
+    assert!(
+        xml.contains("value=\"flat.obj\"") && xml.contains("face_normals"),
+        "{xml}"
+    );
+}
+
+/// A random scene in our TOML format: camera, materials, quads, boxes and spheres with
+/// transforms.
+fn random_scene() -> impl Strategy<Value = String> {
+    let v3 = |r: f64| prop::array::uniform3(-r..r);
+    let camera = (v3(5.0), v3(5.0), 10.0..150.0f64, 1u32..40, 1u32..40);
+    let xform = (
+        0.2..3.0f64,
+        -180.0..180.0f64,
+        -180.0..180.0f64,
+        -180.0..180.0f64,
+        v3(3.0),
+    );
+    let shape = (
+        0usize..3,
+        0usize..3,
+        xform,
+        v3(1.0),
+        prop::array::uniform3(0.1..2.0f64),
+        prop::bool::ANY,
+    );
+    (camera, prop::collection::vec(shape, 1..5), prop::array::uniform3(0.0..1.0f64), 1.1..2.5f64)
+        .prop_filter("the camera needs a view direction", |((eye, at, ..), ..)| {
+            let d = Vec3::from_array(at.map(|x| x as f32)) - Vec3::from_array(eye.map(|x| x as f32));
+            d.length() > 0.1 && d.normalize().y.abs() < 0.95
+        })
+        .prop_map(|((eye, at, fov, w, h), shapes, rho, ior)| {
+            let mut s = format!(
+                "[camera]\neye = {eye:?}\nlook_at = {at:?}\nfov_y = {fov}\nresolution = [{w}, {h}]\n\
+                 [materials.d]\ntype = \"diffuse\"\nreflectance = {rho:?}\n\
+                 [materials.m]\ntype = \"mirror\"\nreflectance = {rho:?}\n\
+                 [materials.g]\ntype = \"dielectric\"\nior = {ior}\n"
+            );
+            for (i, (kind, mat, (scale, rx, ry, rz, tr), p, size, per_axis)) in shapes.into_iter().enumerate() {
+                let material = ["d", "m", "g"][mat];
+                let sc = if per_axis && kind != 2 {
+                    format!("[{scale}, {}, {}]", scale * 0.7, scale * 1.3)
+                } else {
+                    format!("{scale}")
+                };
+                let transform = format!(
+                    "transform = [{{ scale = {sc}, rotate_x = {rx}, rotate_y = {ry} }}, {{ rotate_z = {rz}, translate = {tr:?} }}]"
+                );
+                let geometry = match kind {
+                    0 if i % 2 == 0 => format!(
+                        "type = \"quad\"\ncenter = {p:?}\nsize = [{}, {}]\nfacing = \"-z\"",
+                        size[0], size[1]
+                    ),
+                    0 => format!(
+                        "type = \"quad\"\ncorner = {p:?}\nedge_u = [{}, 0, 0.1]\nedge_v = [0, {}, 0]",
+                        size[0], size[1]
+                    ),
+                    1 => format!("type = \"box\"\ncenter = {p:?}\nsize = {size:?}"),
+                    _ => format!("type = \"sphere\"\ncenter = {p:?}\nradius = {}", size[0]),
+                };
+                s.push_str(&format!(
+                    "[[shapes]]\n{geometry}\nmaterial = \"{material}\"\n{transform}\nemission = {{ radiance = [1, {i}, 2] }}\n"
+                ));
+            }
+            s
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_scenes_survive_export_and_import(text in random_scene()) {
+        let dir = tempfile::tempdir().unwrap();
+        let toml = dir.path().join("r.toml");
+        std::fs::write(&toml, &text).unwrap();
+        let (a, b, _) = round_trip(&toml, dir.path());
+        assert_same_scene(&a, &b, &text);
+    }
+}
+
+fn load_xml(text: &str) -> photon_bench::error::Result<(Scene, Vec<String>)> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.xml");
+    std::fs::write(&path, text).unwrap();
+    load_scene_with_stats(&path).map(|(s, stats)| (s, stats.warnings))
+}
+
+const SENSOR: &str = r#"<sensor type="perspective">
+        <float name="fov" value="$fov"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/>
+            <rfilter type="box"/></film>
+    </sensor>"#;
+
+fn scene_xml(body: &str) -> String {
+    format!("<scene version=\"3.0.0\">\n    <default name=\"fov\" value=\"60\"/>\n    {SENSOR}\n{body}\n</scene>\n")
+}
+
+const LIGHT: &str = r#"<shape type="sphere"><point name="center" x="0" y="3" z="0"/><float name="radius" value="0.5"/>
+        <bsdf type="twosided"><bsdf type="diffuse"/></bsdf>
+        <emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>"#;
+
+#[test]
+fn mitsuba_units_map_onto_ours() {
+    let body = format!(
+        r#"{LIGHT}
+    <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.2 0.4 0.6"/></bsdf></bsdf>
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale value="2"/>
+            <rotate x="1" angle="-90"/>
+            <translate y="-1"/>
+        </transform>
+        <ref id="white"/>
+    </shape>
+    <shape type="cube">
+        <transform name="to_world"><scale x="0.5" y="1" z="0.25"/><translate value="3 0 0"/></transform>
+        <ref name="bsdf" id="white"/>
+    </shape>"#
+    );
+    let (scene, warnings) = load_xml(&scene_xml(&body)).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    // fov_axis x (the default): 60° across 40 pixels is tan(30°) · 20/40 vertically.
+    let want = 2.0 * (30f32.to_radians().tan() * 0.5).atan().to_degrees();
+    assert!(
+        (scene.camera.fov_y_deg - want).abs() < 1e-4,
+        "{}",
+        scene.camera.fov_y_deg
+    );
+    // The rectangle, scaled to [−2, 2]², rotated −90° about x (its +z normal to +y), at y = −1.
+    let Primitive::Triangle(t) = scene.primitives[1] else {
+        panic!()
+    };
+    let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+    assert!((n - Vec3::Y).length() < 1e-6, "{n}");
+    let (lo, hi) = scene.primitives[1..3]
+        .iter()
+        .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| {
+            let (a, b) = p.aabb_min_max();
+            (lo.min(a), hi.max(b))
+        });
+    assert!((lo - Vec3::new(-2.0, -1.0, -2.0)).length() < 1e-5 && (hi - Vec3::new(2.0, -1.0, 2.0)).length() < 1e-5);
+    // The cube: [−1, 1]³ scaled to half sizes (0.5, 1, 0.25) and moved to x = 3, faces outward.
+    let (lo, hi) = scene.primitives[3..15]
+        .iter()
+        .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| {
+            let (a, b) = p.aabb_min_max();
+            (lo.min(a), hi.max(b))
+        });
+    assert!((lo - Vec3::new(2.5, -1.0, -0.25)).length() < 1e-5, "{lo}");
+    assert!((hi - Vec3::new(3.5, 1.0, 0.25)).length() < 1e-5, "{hi}");
+    let centre = Vec3::new(3.0, 0.0, 0.0);
+    for p in &scene.primitives[3..15] {
+        let Primitive::Triangle(t) = p else { panic!() };
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        assert!(n.dot(t[0] - centre) > 0.0, "a cube face points inward");
+    }
+    // The camera at z = 5 looks down −z, and +x is on the right of the image.
+    let right = scene.camera.generate_ray(Vec2::new(39.0, 10.0));
+    assert!(right.d.x > 0.0 && right.d.z < 0.0, "{}", right.d);
+    assert_eq!(
+        scene
+            .materials
+            .iter()
+            .find(|m| m.name == "white")
+            .map(|m| m.bsdf.clone()),
+        Some(photon_bench::bsdf::Bsdf::Lambertian(photon_bench::bsdf::Lambertian {
+            reflectance: Vec3::new(0.2, 0.4, 0.6)
+        }))
+    );
+}
+
+#[test]
+fn approximations_and_ignored_settings_are_warned_about() {
+    let body = format!(
+        r#"{LIGHT}
+    <integrator type="path"><integer name="max_depth" value="5"/></integrator>
+    <shape type="sphere"><bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf></shape>
+    <shape type="sphere"><point name="center" value="2, 0, 0"/></shape>"#
+    );
+    let (scene, warnings) = load_xml(&scene_xml(&body)).unwrap();
+    let all = warnings.join("\n");
+    for expected in ["integrator", "Ward", "one-sided", "no BSDF"] {
+        assert!(all.contains(expected), "no warning about {expected}: {all}");
+    }
+    assert!(matches!(
+        scene.materials.iter().find(|m| m.name == "shape1").unwrap().bsdf,
+        photon_bench::bsdf::Bsdf::Ward(_)
+    ));
+}
+
+/// Every refusal is one line naming the file, the line, the element and what was wrong.
+#[test]
+fn bad_xml_is_refused_naming_the_element() {
+    let cases: Vec<(String, &[&str])> = vec![
+        (
+            scene_xml(&format!("{LIGHT}<shape type=\"ply\"/>")),
+            &["<shape type=\"ply\">", "unsupported shape"],
+        ),
+        (
+            scene_xml(&format!("{LIGHT}<emitter type=\"constant\"/>")),
+            &["<emitter type=\"constant\">", "area"],
+        ),
+        (
+            scene_xml(&format!("{LIGHT}<texture type=\"bitmap\" id=\"t\"/>")),
+            &["<texture", "unsupported element"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"sphere\"><bsdf type=\"diffuse\"><float name=\"roughness\" value=\"1\"/></bsdf></shape>"
+            )),
+            &["<float name=\"roughness\">", "unsupported property"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"sphere\"><bsdf type=\"plastic\"/></shape>"
+            )),
+            &["<bsdf type=\"plastic\">", "unsupported BSDF"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>"
+            )),
+            &["<float name=\"radius\">", "$r is not defined"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"obj\"><string name=\"filename\" value=\"missing.obj\"/></shape>"
+            )),
+            &["<string name=\"filename\">", "cannot read", "missing.obj"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"sphere\"><float name=\"radius\" value=\"nan\"/></shape>"
+            )),
+            &["<float name=\"radius\">", "finite"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"rectangle\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5, NaN, 0.5\"/></bsdf></shape>"
+            )),
+            &["<rgb name=\"reflectance\">", "finite"],
+        ),
+        (
+            scene_xml(&format!("{LIGHT}<shape type=\"cube\"><ref id=\"nothing\"/></shape>")),
+            &["<ref id=\"nothing\">", "no top-level <bsdf id=\"nothing\">"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"rectangle\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"2\"/></bsdf></shape>"
+            )),
+            &["reflectance", "[0, 1]"],
+        ),
+        (scene_xml("<shape type=\"cube\"/>"), &["no light"]),
+        (format!("<scene>{LIGHT}</scene>"), &["no <sensor>"]),
+        (
+            scene_xml(&format!("{LIGHT}<shape type=\"cube\">")),
+            &["XML syntax error"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"cube\"><transform name=\"to_world\"><skew value=\"1\"/></transform></shape>"
+            )),
+            &["<skew", "unsupported transform operation"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"1\" y=\"2\"/></transform></shape>"
+            )),
+            &["<shape type=\"sphere\">", "uniform scale"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf></shape>"
+            )),
+            &["<string name=\"material\">", "Fresnel"],
+        ),
+        (
+            SENSOR
+                .replace(
+                    "<float name=\"fov\" value=\"$fov\"/>",
+                    "<float name=\"fov\" value=\"200\"/>",
+                )
+                .replace("<sensor", &format!("<scene>{LIGHT}<sensor"))
+                + "</scene>",
+            &["<sensor type=\"perspective\">", "fov"],
+        ),
+    ];
+    for (text, expected) in cases {
+        let err = match load_xml(&text) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("s.xml: "), "no file in {err:?}");
+        assert!(!err.contains('\n'), "{err:?}");
+        for e in expected {
+            assert!(err.contains(e), "{err:?} lacks {e:?}");
+        }
+    }
+}
+
+#[test]
+fn bench_exits_with_status_2_and_one_line_on_a_bad_xml_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.xml");
+    std::fs::write(&path, scene_xml(&format!("{LIGHT}<shape type=\"disk\"/>"))).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_bench"))
+        .args(["reference", path.to_str().unwrap(), "--spp", "1", "--out"])
+        .arg(dir.path().join("refs"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("<shape type=\"disk\">") && stderr.contains("unsupported shape"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("refs").exists());
+}
+
+#[test]
+fn export_refuses_what_mitsuba_cannot_express() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov_y = 40\nresolution = [4, 4]\n";
+    for (extra, expected) in [
+        (
+            "[materials.p]\ntype = \"phong\"\ndiffuse = [0.2, 0.2, 0.2]\nspecular = [0.2, 0.2, 0.2]\nexponent = 10\n",
+            "materials.p: phong",
+        ),
+        (
+            "[materials.p]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n",
+            "two_sided",
+        ),
+    ] {
+        let toml = dir.path().join("x.toml");
+        let text = format!(
+            "{base}{extra}[[shapes]]\ntype = \"sphere\"\nmaterial = \"p\"\ncenter = [0, 0, 0]\nradius = 1\n\
+             emission = {{ radiance = [1, 1, 1], two_sided = true }}\n"
+        );
+        std::fs::write(&toml, text).unwrap();
+        let err = export_file(&toml, &dir.path().join("x.xml")).unwrap_err().to_string();
+        assert!(err.contains("x.toml: ") && err.contains(expected), "{err}");
+        assert!(!dir.path().join("x.xml").exists());
+    }
+}
