@@ -342,9 +342,46 @@ pub fn image_strip(images: &[&Image], gap_px: u32) -> Image {
     strip
 }
 
+/// Rows of images stacked vertically, `gap_px` black pixels between rows and columns (each row
+/// an [`image_strip`]): e.g. strategies as rows and checkpoints as columns.
+pub fn image_grid(rows: &[Vec<&Image>], gap_px: u32) -> Image {
+    let strips: Vec<Image> = rows.iter().map(|r| image_strip(r, gap_px)).collect();
+    let width = strips.iter().map(|s| s.width).max().unwrap_or(0);
+    let height = strips.iter().map(|s| s.height).sum::<u32>() + gap_px * strips.len().saturating_sub(1) as u32;
+    let mut grid = Image::new(width, height);
+    let mut y0 = 0usize;
+    for s in &strips {
+        for y in 0..s.height as usize {
+            let src = &s.pixels[y * s.width as usize..(y + 1) * s.width as usize];
+            let dst = (y0 + y) * width as usize;
+            grid.pixels[dst..dst + src.len()].copy_from_slice(src);
+        }
+        y0 += (s.height + gap_px) as usize;
+    }
+    grid
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn image_grid_places_rows_below_each_other() {
+        let a = image(1, 1, &[[1.0, 0.0, 0.0]]);
+        let b = image(1, 1, &[[0.0, 1.0, 0.0]]);
+        let c = image(1, 1, &[[0.0, 0.0, 1.0]]);
+        let g = image_grid(&[vec![&a, &b], vec![&c]], 1);
+        assert_eq!((g.width, g.height), (3, 3));
+        let at = |x: usize, y: usize| g.pixels[y * 3 + x].to_array();
+        assert_eq!(at(0, 0), [1.0, 0.0, 0.0]);
+        assert_eq!(at(2, 0), [0.0, 1.0, 0.0]);
+        assert_eq!(at(0, 2), [0.0, 0.0, 1.0]);
+        assert_eq!(
+            [at(1, 0), at(0, 1), at(2, 2)],
+            [[0.0; 3]; 3],
+            "gaps and the short row stay black"
+        );
+    }
 
     fn image(width: u32, height: u32, pixels: &[[f32; 3]]) -> Image {
         Image {

@@ -113,7 +113,13 @@ fn reference_then_run_writes_a_complete_result_directory() {
     }
 
     let summary = std::fs::read_to_string(run.join("summary.md")).unwrap();
-    for text in ["### rel_mse", "95 % CI", "| uniform | 2 spp | 2 |"] {
+    for text in [
+        "### rel_mse",
+        "95 % CI",
+        "| uniform | 2 spp | 2 |",
+        "### ratios to `",
+        "| 2 spp | 2/2 |",
+    ] {
         assert!(summary.contains(text), "summary lacks {text:?}:\n{summary}");
     }
     let svg = std::fs::read_to_string(run.join("plots/tiny_mse_vs_spp.svg")).unwrap();
@@ -132,6 +138,14 @@ fn reference_then_run_writes_a_complete_result_directory() {
         (3 * 16 + 2 * 2, 12),
         "two strategies and the reference"
     );
+    let progression = image::open(run.join("images/tiny_progression_spp.png")).unwrap();
+    assert_eq!(
+        (progression.width(), progression.height()),
+        (2 * 16 + 2, 3 * 12 + 2 * 2),
+        "two spp checkpoints as columns; two strategies and the reference as rows"
+    );
+    let ratios = std::fs::read_to_string(run.join("ratios.csv")).unwrap();
+    assert_eq!(ratios.lines().count(), 2, "one strategy against the first:\n{ratios}");
     assert_offline_page(run);
 
     // `bench plot` redraws every plot from metrics.csv alone.

@@ -396,6 +396,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
     crate::report::write_plots(&rows, dir)?;
     let gathers = crate::report::final_gather::comparisons(&rows, dir)?;
     crate::report::final_gather::write_csv(&gathers, dir)?;
+    crate::report::ratios::write_csv(&crate::report::ratios::ratios(&rows), dir)?;
     crate::report::write_summary(&exp.name, &exp.description, &rows, &gathers, dir)?;
     crate::report::html::write_index(&rows, &gathers, dir)?;
     Ok((cached, rendered))
@@ -431,8 +432,53 @@ fn write_strips(exp: &Experiment, prepared: &[Prepared], rows: &[Row], dir: &Pat
             let path = dir.join(crate::report::html::strip_path(&p.scene.name, budget, value));
             write_png(&strip, &path, 0.0)?;
         }
+        write_progression(exp, p, rows, seed, dir)?;
     }
     Ok(())
+}
+
+/// The equal-spp progression of one scene ([`crate::report::html::progression_path`]), when the
+/// experiment has two spp checkpoints or more. A strategy without some checkpoint leaves that
+/// place black.
+fn write_progression(exp: &Experiment, p: &Prepared, rows: &[Row], seed: u64, dir: &Path) -> Result<()> {
+    if exp.spp.len() < 2 {
+        return Ok(());
+    }
+    let (w, h) = (p.reference.image.width, p.reference.image.height);
+    let blank = crate::film::Image::new(w, h);
+    let mut images: Vec<Vec<crate::film::Image>> = Vec::new();
+    for spec in exp
+        .strategies
+        .iter()
+        .filter(|s| s.runs_on(&p.file) && !s.spp.is_empty())
+    {
+        let mut row = Vec::new();
+        for &spp in &exp.spp {
+            let found = rows.iter().find(|r| {
+                r.scene == p.scene.name
+                    && r.strategy == spec.label
+                    && r.seed == seed
+                    && r.budget == BUDGET_SPP
+                    && r.budget_value == spp as f64
+            });
+            row.push(match found {
+                Some(r) => read_exr(&dir.join(&r.image))?,
+                None => blank.clone(),
+            });
+        }
+        images.push(row);
+    }
+    if images.is_empty() {
+        return Ok(());
+    }
+    images.push(vec![p.reference.image.clone()]);
+    let grid_rows: Vec<Vec<&crate::film::Image>> = images.iter().map(|r| r.iter().collect()).collect();
+    let grid = crate::film::image_grid(&grid_rows, 2);
+    write_png(
+        &grid,
+        &dir.join(crate::report::html::progression_path(&p.scene.name)),
+        0.0,
+    )
 }
 
 /// Every parameter of a strategy as `key=value;…`, defaults included.

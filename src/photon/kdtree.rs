@@ -386,7 +386,10 @@ mod tests {
             let keep = |v: &Vec3| !filtered || v.z > 0.7;
             tree.k_nearest_into(p, k, r, keep, &mut out);
             if let Some(first) = out.first() {
-                assert!(out.iter().all(|n| n.dist2 <= first.dist2), "heap order: the farthest first");
+                assert!(
+                    out.iter().all(|n| n.dist2 <= first.dist2),
+                    "heap order: the farthest first"
+                );
             }
             let mut got: Vec<f32> = out.iter().map(|n| n.dist2).collect();
             got.sort_unstable_by(f32::total_cmp);

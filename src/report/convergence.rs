@@ -233,8 +233,10 @@ pub fn write_summary(
         CONFIDENCE * 100.0
     );
     let groups = group(rows);
+    let ratios = super::ratios::ratios(rows);
     for scene in distinct(rows, |r| &r.scene) {
         let _ = writeln!(md, "## {scene}\n");
+        let _ = write!(md, "{}", super::ratios::markdown(&ratios, scene));
         for metric in METRICS {
             // A column the run's files did not record (written before `flip` existed).
             if rows

@@ -18,6 +18,13 @@ pub fn strip_path(scene: &str, budget: &str, value: f64) -> String {
     }
 }
 
+/// The equal-spp progression of `scene`, relative to the run directory: one row per strategy
+/// (the experiment's order, then the reference alone), one column per spp checkpoint, first
+/// seed — Jensen 1995's Fig. 4 is two of its rows.
+pub fn progression_path(scene: &str) -> String {
+    format!("images/{scene}_progression_spp.png")
+}
+
 /// Escapes text for HTML.
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -179,6 +186,23 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
                 ),
             );
         }
+        let spp_strategies = distinct(rows, |r| &r.strategy)
+            .into_iter()
+            .filter(|s| {
+                groups
+                    .iter()
+                    .any(|g| g.scene == scene && g.strategy == *s && g.budget == BUDGET_SPP)
+            })
+            .collect::<Vec<_>>();
+        figure(
+            &mut h,
+            "strip",
+            &progression_path(scene),
+            &format!(
+                "equal spp, first seed: one row per strategy ({}), then the reference; one column per spp checkpoint",
+                spp_strategies.join(", ")
+            ),
+        );
         let _ = writeln!(h, "<br>");
         for g in largest.iter().flatten() {
             let Some(r) = g.rows.first() else { continue };

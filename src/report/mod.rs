@@ -9,6 +9,7 @@ pub mod final_gather;
 pub mod html;
 pub mod photons;
 pub mod plot;
+pub mod ratios;
 pub mod rows;
 pub mod stats;
 
