@@ -5,7 +5,7 @@ use clap::{Parser, Subcommand};
 use photon_bench::error::{Error, Result};
 use photon_bench::experiment::{self, Experiment, reference};
 use photon_bench::scene::load_scene;
-use photon_bench::strategy::path::{BsdfSampling, Direct, PathParams};
+use photon_bench::strategy::path::{BsdfSampling, Direct, PathParams, Roulette};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -61,6 +61,9 @@ enum Command {
         max_depth: u32,
         #[arg(long, default_value_t = PathParams::default().rr_depth)]
         rr_depth: u32,
+        /// throughput | albedo (what Russian roulette's survival probability follows)
+        #[arg(long, default_value = "throughput")]
+        roulette: String,
         /// mis | nee | bsdf
         #[arg(long, default_value = "mis")]
         direct: String,
@@ -226,6 +229,7 @@ fn run_command(command: Command) -> Result<Status> {
             out,
             max_depth,
             rr_depth,
+            roulette,
             direct,
             bsdf_sampling,
             force,
@@ -238,7 +242,7 @@ fn run_command(command: Command) -> Result<Status> {
                 rr_depth,
                 direct: parse_enum::<Direct>("--direct", &direct)?,
                 bsdf_sampling: parse_enum::<BsdfSampling>("--bsdf-sampling", &bsdf_sampling)?,
-                ..PathParams::default()
+                roulette: parse_enum::<Roulette>("--roulette", &roulette)?,
             };
             let scene = load_scene(&scene)?;
             let existing = reference::exr_path(&out, &scene.name);
