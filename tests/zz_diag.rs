@@ -91,8 +91,8 @@ fn diag() {
 #[test]
 fn diag_var() {
     use photon_bench::strategy::path::{BsdfSampling, Direct, Roulette, Walk, trace};
-    let text = std::fs::read_to_string("scenes/cornell-empty.toml").unwrap();
-    let (scene, _) = load_scene_bytes(std::path::Path::new("scenes/cornell-empty.toml"), text.as_bytes()).unwrap();
+    let text = std::fs::read_to_string("scenes/desk-lamp.toml").unwrap();
+    let (scene, _) = load_scene_bytes(std::path::Path::new("scenes/desk-lamp.toml"), text.as_bytes()).unwrap();
     for (md, roulette) in [(1u32, Roulette::Albedo), (2, Roulette::Albedo), (16, Roulette::Albedo)] {
         let walk = Walk {
             max_depth: md,
@@ -101,7 +101,7 @@ fn diag_var() {
             direct: Direct::Mis,
         };
         println!("max_depth {md} {roulette:?}");
-        for (np, nn) in [(60000u64, 50usize)] {
+        for (np, nn) in [(33000u64, 50usize)] {
             let params = PhotonGuidedParams {
                 photons: np,
                 nearest: nn,
@@ -113,7 +113,7 @@ fn diag_var() {
                 map: s.map().unwrap(),
                 params: &params,
             };
-            for px in [Vec2::new(40.5, 1.5), Vec2::new(34.5, 3.5)] {
+            for px in [Vec2::new(65.5, 48.5), Vec2::new(64.5, 51.5), Vec2::new(100.5, 40.5)] {
                 let ray = scene.camera.generate_ray(px);
                 let stats = |f: &dyn Fn(&mut Rng) -> f32| {
                     let mut rng = Rng::for_task(9, [px.x as u64, px.y as u64, 0]);
