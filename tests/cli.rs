@@ -369,11 +369,48 @@ fn a_killed_run_resumes_from_its_cached_cells_with_identical_results() {
         assert!(rows.iter().all(|r| cell.join(&r.image).exists()));
     }
 
-    // Running again renders only the missing cells ...
+    // The killed run left its partial run directory (and perhaps a cell's temporary), which
+    // name their writer; a temporary of a live process on this host must survive.
+    let hidden = |root: &Path| -> Vec<PathBuf> {
+        let results = root.join("results/tiny");
+        [results.clone(), results.join("cells")]
+            .iter()
+            .flat_map(|d| std::fs::read_dir(d).unwrap().map(|e| e.unwrap().path()))
+            .filter(|p| p.is_dir() && p.file_name().unwrap().to_string_lossy().starts_with('.'))
+            .collect()
+    };
+    let leftovers = hidden(root);
+    assert!(!leftovers.is_empty(), "a killed run leaves its partial directory");
+    for dir in &leftovers {
+        let owner = std::fs::read_to_string(dir.join(photon_bench::experiment::run::OWNER)).unwrap();
+        assert!(owner.trim().ends_with(&format!(" {}", child.id())), "{owner}");
+    }
+    let live = root.join("results/tiny/cells/.tmp-live");
+    std::fs::create_dir_all(&live).unwrap();
+    let host = std::fs::read_to_string(leftovers[0].join(photon_bench::experiment::run::OWNER)).unwrap();
+    let host = host.trim().rsplit_once(' ').unwrap().0.to_string();
+    std::fs::write(
+        live.join(photon_bench::experiment::run::OWNER),
+        format!("{host} {}\n", std::process::id()),
+    )
+    .unwrap();
+
+    // Running again removes the dead run's temporaries, renders only the missing cells ...
     let o = bench(root, &["run", "experiments/tiny.toml"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let msg = format!("cells: {cached} cached, {} rendered", 6 - cached);
     assert!(stderr(&o).contains(&msg), "expected {msg:?} in {}", stderr(&o));
+    assert!(
+        stderr(&o).contains("temporary directories of killed runs"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(
+        hidden(root),
+        vec![live.clone()],
+        "only the live process's temporary is left"
+    );
+    std::fs::remove_dir_all(&live).unwrap();
     let resumed = root.join(String::from_utf8_lossy(&o.stdout).trim());
     // ... and gives the metrics of a run from scratch, bit for bit.
     let o = bench(root, &["run", "--force", "experiments/tiny.toml"]);

@@ -13,6 +13,11 @@
 //! run is resumed by running it again. A run renders into a hidden
 //! `<output>/<name>/.<run-id>.partial/` directory that is renamed to `<run-id>/` only when
 //! complete, so `results/` never shows half a run, and a new run never overwrites an old one.
+//!
+//! A killed run leaves those temporaries behind. Each holds an [`OWNER`] file naming the host
+//! and process that writes it; the next run removes the ones whose process is gone from this
+//! host ([`remove_leftovers`]) and leaves alone those of live processes and of other hosts (a
+//! shared results directory on a cluster), which a run there removes.
 
 use super::config::{Experiment, MAX_SPP, StrategySpec};
 use super::reference::{self, Reference};
@@ -197,11 +202,19 @@ pub fn run(exp: &Experiment, force: bool) -> Result<Outcome> {
     let prepared = prepare_all(exp)?;
 
     let base = exp.output.join(&exp.name);
+    let removed = remove_leftovers(&base);
+    if removed > 0 {
+        eprintln!(
+            "{}: removed {removed} temporary directories of killed runs",
+            base.display()
+        );
+    }
     let run_id = new_run_id(&base);
     let partial = base.join(format!(".{run_id}.partial"));
     let final_dir = base.join(&run_id);
-    std::fs::create_dir_all(partial.join("images")).context(partial.display())?;
+    create_owned_dir(&partial, "images")?;
     let result = run_into(exp, &prepared, &run_id, &partial, force).and_then(|counts| {
+        let _ = std::fs::remove_file(partial.join(OWNER));
         std::fs::rename(&partial, &final_dir)
             .context(final_dir.display())
             .map(|()| counts)
@@ -260,7 +273,7 @@ fn load_cell(cell: &Path) -> Option<Vec<Row>> {
 fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec<Row>>) -> Result<Vec<Row>> {
     let tmp = cells.join(format!(".tmp-{hash}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(tmp.join("images")).context(tmp.display())?;
+    create_owned_dir(&tmp, "images")?;
     let result = render(&tmp).and_then(|rows| {
         write_csv(&rows, &tmp.join("rows.csv"))?;
         let target = cells.join(hash);
@@ -268,6 +281,7 @@ fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec
             // Replaced on --force (or written meanwhile by a concurrent run).
             std::fs::remove_dir_all(&target).context(target.display())?;
         }
+        let _ = std::fs::remove_file(tmp.join(OWNER));
         std::fs::rename(&tmp, &target).context(target.display())?;
         Ok(rows)
     });
@@ -275,6 +289,76 @@ fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec
         let _ = std::fs::remove_dir_all(&tmp);
     }
     result
+}
+
+/// The file in a run's temporary directories that names their writer: `<host> <pid>`.
+pub const OWNER: &str = ".owner";
+
+/// This machine's name, as the kernel reports it (`unknown` where it cannot be read).
+fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .or_else(|_| std::env::var("HOSTNAME"))
+        .unwrap_or_else(|_| "unknown".to_string())
+}
+
+/// Creates the temporary directory `dir` (and `dir/sub`) with its [`OWNER`] file.
+fn create_owned_dir(dir: &Path, sub: &str) -> Result<()> {
+    std::fs::create_dir_all(dir.join(sub)).context(dir.display())?;
+    let owner = format!("{} {}\n", host_name(), std::process::id());
+    std::fs::write(dir.join(OWNER), owner).context(dir.join(OWNER).display())
+}
+
+/// Is the temporary directory `dir` an orphan: written by a process of this host that no longer
+/// runs? Without an owner file (killed between creating the directory and writing the file) it
+/// is one once a day old. Where processes cannot be looked up (no `/proc`), nothing is.
+fn is_orphan(dir: &Path, host: &str) -> bool {
+    if !Path::new("/proc/self").exists() {
+        return false;
+    }
+    match std::fs::read_to_string(dir.join(OWNER)) {
+        Ok(owner) => match owner.trim().rsplit_once(' ') {
+            Some((h, pid)) => {
+                h == host
+                    && pid
+                        .parse::<u32>()
+                        .is_ok_and(|pid| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists())
+            }
+            None => false,
+        },
+        Err(_) => std::fs::metadata(dir)
+            .and_then(|m| m.modified())
+            .is_ok_and(|t| t.elapsed().is_ok_and(|age| age.as_secs() > 24 * 3600)),
+    }
+}
+
+/// Removes the orphaned temporaries of killed runs under `base` (`.<run-id>.partial/` and
+/// `cells/.tmp-*/`, see the module doc); returns how many.
+pub fn remove_leftovers(base: &Path) -> usize {
+    let host = host_name();
+    let mut removed = 0;
+    let candidates = |dir: &Path, keep: &dyn Fn(&str) -> bool| -> Vec<PathBuf> {
+        std::fs::read_dir(dir)
+            .map(|d| {
+                d.filter_map(|e| e.ok())
+                    .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+                    .filter(|e| keep(&e.file_name().to_string_lossy()))
+                    .map(|e| e.path())
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let partial = |n: &str| n.starts_with('.') && n.ends_with(".partial");
+    let tmp = |n: &str| n.starts_with(".tmp-");
+    for dir in candidates(base, &partial)
+        .into_iter()
+        .chain(candidates(&base.join("cells"), &tmp))
+    {
+        if is_orphan(&dir, &host) && std::fs::remove_dir_all(&dir).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
 }
 
 /// Links (or copies, across file systems) a cell's images into the run directory.
