@@ -49,6 +49,30 @@ fn photon_guided_agrees_with_path_on_cornell_empty() {
     }
 }
 
+/// Guiding glossy vertices by the product f_r ΔΦ (beyond the paper) must stay unbiased too:
+/// `cornell-empty` with glossy Phong white walls, floor and ceiling.
+#[test]
+fn glossy_guiding_agrees_with_path() {
+    let text = std::fs::read_to_string("scenes/cornell-empty.toml")
+        .unwrap()
+        .replace("resolution = [80, 60]", "resolution = [32, 24]")
+        .replace(
+            "type = \"diffuse\"\nreflectance = [0.73, 0.73, 0.73]",
+            "type = \"phong\"\ndiffuse = [0.35, 0.35, 0.35]\nspecular = [0.4, 0.4, 0.4]\nexponent = 12.0",
+        );
+    assert!(text.contains("phong"));
+    let (scene, _) = load_scene_bytes(std::path::Path::new("scenes/cornell-empty.toml"), text.as_bytes()).unwrap();
+    let (m0, se0) = mean_and_se(&scene, "path", "", 8, 32);
+    for params in [
+        "photons = 20000\nglossy = true",
+        "photons = 20000\nglossy = true\nbsdf_mixture = 0.25",
+    ] {
+        let (m, se) = mean_and_se(&scene, "photon_guided", params, 8, 32);
+        let z = (m - m0).abs() / (se * se + se0 * se0).sqrt();
+        assert!(z < 4.5, "{params}: mean {m} ± {se} vs path {m0} ± {se0} (z = {z:.1})");
+    }
+}
+
 /// Per-pixel variance of one path sample through the centre of `pixel`, over `n` samples.
 fn pixel_variance<S: DirectionSampler>(scene: &Scene, walk: &Walk, sampler: &S, pixel: Vec2, n: u64) -> f64 {
     let ray = scene.camera.generate_ray(pixel);
