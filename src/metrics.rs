@@ -22,6 +22,11 @@
 //!   are ([`crate::film::write_png`] at exposure 0): linear values clamped to [0, 1], the sRGB
 //!   transfer function, rounded to 8 bits. FLIP therefore judges the picture a reader sees;
 //!   errors above 1 (a saturated light) are invisible to it, which the other metrics cover.
+//! - **MSE of the display images** (`mse_ldr`): the MSE of the same 8-bit sRGB images FLIP
+//!   sees, in units of full scale (0 … 1). Jensen 1995 reports MSE between computed images and
+//!   a reference without saying whether they were the 8-bit images of its figures; this is that
+//!   reading. A saturated region (a light, a hot spot seen directly) has no error here, so when
+//!   such pixels dominate the MSE of the radiance the two tell different stories (README).
 //! - **efficiency** = `1 / (MSE · time)` (Veach 1997, §2.5 "efficiency of an estimator"; Pharr,
 //!   Jakob & Humphreys, PBRT 4th ed., §2.1.4), higher is better.
 
@@ -68,6 +73,8 @@ pub struct Metrics {
     pub rms_rel_lum_excluded: u64,
     /// Mean LDR-FLIP error of the tone-mapped images, in [0, 1] ([`flip`]).
     pub flip: f64,
+    /// MSE of the tone-mapped 8-bit images, in full-scale units ([`mse_ldr`]).
+    pub mse_ldr: f64,
 }
 
 /// Number of pixels the trimmed metrics drop out of `n_pixels`: exactly
@@ -133,19 +140,34 @@ pub fn compare(image: &Image, reference: &Image) -> Result<Metrics> {
         rms_rel_lum,
         rms_rel_lum_excluded,
         flip: flip(image, reference),
+        mse_ldr: mse_ldr(image, reference),
     })
+}
+
+/// An image as its sRGB preview shows it: clamped to [0, 1], sRGB-encoded, 8 bits per channel.
+fn ldr(im: &Image) -> Vec<u8> {
+    im.pixels
+        .iter()
+        .flat_map(|p| p.to_array())
+        .map(crate::film::srgb8)
+        .collect()
+}
+
+/// MSE of the display images (module documentation): mean over pixels and channels of
+/// ((a − b) / 255)² for the 8-bit sRGB values a, b.
+pub fn mse_ldr(image: &Image, reference: &Image) -> f64 {
+    let (a, b) = (ldr(image), ldr(reference));
+    let sum: f64 = a
+        .iter()
+        .zip(&b)
+        .map(|(&x, &y)| ((x as f64 - y as f64) / 255.0).powi(2))
+        .sum();
+    sum / a.len().max(1) as f64
 }
 
 /// Mean LDR-FLIP error of `image` against `reference` (same size, checked by the caller),
 /// both tone-mapped as the sRGB previews are (module documentation).
 pub fn flip(image: &Image, reference: &Image) -> f64 {
-    let ldr = |im: &Image| -> Vec<u8> {
-        im.pixels
-            .iter()
-            .flat_map(|p| p.to_array())
-            .map(crate::film::srgb8)
-            .collect()
-    };
     let (w, h) = (image.width, image.height);
     let map = nv_flip::flip(
         nv_flip::FlipImageRgb8::with_data(w, h, &ldr(reference)),
@@ -254,6 +276,17 @@ mod tests {
         );
         // It is part of every comparison.
         assert_eq!(compare(&noisy(&r, 0.3, 7), &r).unwrap().flip, errors[2]);
+    }
+
+    #[test]
+    fn mse_ldr_compares_the_display_images() {
+        // Both saturate: no error on the display, however different the radiance.
+        assert_eq!(mse_ldr(&image(1, 1, &[[5.0; 3]]), &image(1, 1, &[[50.0; 3]])), 0.0);
+        // Black against white: full scale in every channel.
+        assert_eq!(mse_ldr(&image(1, 1, &[[0.0; 3]]), &image(1, 1, &[[1.0; 3]])), 1.0);
+        // 0.5 linear is sRGB 188/255; against black, one channel of three.
+        let e = mse_ldr(&image(1, 1, &[[0.5, 0.0, 0.0]]), &image(1, 1, &[[0.0; 3]]));
+        assert!((e - (188.0f64 / 255.0).powi(2) / 3.0).abs() < 1e-12, "{e}");
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //! standard importance sampling has more than 3× the MSE"; "the photon map adds 20 % render
 //! time" — Jensen 1995, §5). For every scene, every strategy is set against the experiment's
 //! first strategy on that scene at the largest checkpoint of each budget kind that both reach:
-//! the error ratio first / this (> 1: this strategy is better) and the time ratio this / first
+//! the error ratios first / this (MSE, MSE of the display images, FLIP; > 1: this strategy is
+//! better) and the time ratio this / first
 //! (preparation included; at equal spp, 1 + the time overhead per sample).
 //!
 //! Confidence intervals: the seeds of two strategies are independent runs, so each ratio of
@@ -62,6 +63,8 @@ pub struct Ratio {
     pub mse: RatioCi,
     /// FLIP of the first / FLIP of this strategy (`None` for runs without the column).
     pub flip: Option<RatioCi>,
+    /// MSE of the display images, first / this (`None` for runs without the column).
+    pub mse_ldr: Option<RatioCi>,
     /// Total time (preparation + rendering) of this strategy / of the first.
     pub time: RatioCi,
 }
@@ -95,7 +98,10 @@ pub fn ratios(rows: &[Row]) -> Vec<Ratio> {
                     .iter()
                     .find(|b| b.budget_value == c.budget_value)
                     .expect("shared");
-                let flip_known = b.rows.iter().chain(&c.rows).all(|r| !r.flip.is_nan());
+                let optional = |get: fn(&Row) -> f64| {
+                    let known = b.rows.iter().chain(&c.rows).all(|r| !get(r).is_nan());
+                    known.then(|| ratio_of_means(&b.values(get), &c.values(get)))
+                };
                 out.push(Ratio {
                     scene: scene.to_string(),
                     baseline: first.to_string(),
@@ -104,7 +110,8 @@ pub fn ratios(rows: &[Row]) -> Vec<Ratio> {
                     budget_value: c.budget_value,
                     seeds: (b.rows.len(), c.rows.len()),
                     mse: ratio_of_means(&b.values(|r| r.mse), &c.values(|r| r.mse)),
-                    flip: flip_known.then(|| ratio_of_means(&b.values(|r| r.flip), &c.values(|r| r.flip))),
+                    flip: optional(|r| r.flip),
+                    mse_ldr: optional(|r| r.mse_ldr),
                     time: ratio_of_means(&c.values(|r| r.total_s), &b.values(|r| r.total_s)),
                 });
             }
@@ -139,17 +146,18 @@ pub fn markdown(ratios: &[Ratio], scene: &str) -> String {
     );
     let _ = writeln!(
         md,
-        "| strategy | budget | seeds | MSE ratio | FLIP ratio | time ratio |\n|---|---:|---:|---:|---:|---:|"
+        "| strategy | budget | seeds | MSE ratio | display MSE ratio | FLIP ratio | time ratio |\n|---|---:|---:|---:|---:|---:|---:|"
     );
     for r in mine {
         let _ = writeln!(
             md,
-            "| {} | {} | {}/{} | {} | {} | {} |",
+            "| {} | {} | {}/{} | {} | {} | {} | {} |",
             r.strategy,
             budget_label(&r.budget, r.budget_value),
             r.seeds.0,
             r.seeds.1,
             cell(&r.mse),
+            r.mse_ldr.as_ref().map_or("–".to_string(), cell),
             r.flip.as_ref().map_or("–".to_string(), cell),
             cell(&r.time)
         );
@@ -172,6 +180,9 @@ pub fn write_csv(ratios: &[Ratio], dir: &Path) -> Result<()> {
         "mse_ratio",
         "mse_ratio_lo",
         "mse_ratio_hi",
+        "mse_ldr_ratio",
+        "mse_ldr_ratio_lo",
+        "mse_ldr_ratio_hi",
         "flip_ratio",
         "flip_ratio_lo",
         "flip_ratio_hi",
@@ -202,6 +213,7 @@ pub fn write_csv(ratios: &[Ratio], dir: &Path) -> Result<()> {
             r.seeds.1.to_string(),
         ];
         rec.extend(cols(Some(&r.mse)));
+        rec.extend(cols(r.mse_ldr.as_ref()));
         rec.extend(cols(r.flip.as_ref()));
         rec.extend(cols(Some(&r.time)));
         w.write_record(&rec).map_err(io)?;
@@ -247,6 +259,7 @@ mod tests {
             mse,
             total_s,
             flip: f64::NAN,
+            mse_ldr: f64::NAN,
             ..Row::default()
         };
         let mut rows = Vec::new();

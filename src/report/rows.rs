@@ -65,6 +65,10 @@ pub struct Row {
     /// NaN, and reports leave a metric out where it is NaN on every row.
     #[serde(default = "not_recorded")]
     pub flip: f64,
+    /// MSE of the tone-mapped 8-bit images ([`crate::metrics::mse_ldr`]). The last column;
+    /// NaN in files written before it existed, like `flip`.
+    #[serde(default = "not_recorded")]
+    pub mse_ldr: f64,
 }
 
 fn not_recorded() -> f64 {
@@ -120,6 +124,11 @@ pub const METRICS: &[Metric] = &[
         name: "flip",
         error: true,
         get: |r| r.flip,
+    },
+    Metric {
+        name: "mse_ldr",
+        error: true,
+        get: |r| r.mse_ldr,
     },
     Metric {
         name: "spp",
@@ -263,7 +272,12 @@ mod tests {
         // The committed baseline predates both optional columns.
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/baseline/metrics.csv");
         let old = read_csv(&path).unwrap();
-        assert!(!old.is_empty() && old.iter().all(|r| r.flip.is_nan() && r.counters.is_empty()));
+        assert!(
+            !old.is_empty()
+                && old
+                    .iter()
+                    .all(|r| r.flip.is_nan() && r.mse_ldr.is_nan() && r.counters.is_empty())
+        );
         let new: Vec<Row> = old
             .iter()
             .map(|r| Row {
