@@ -7,6 +7,27 @@ use photon_bench::geometry::Primitive;
 use photon_bench::scene::load::{load_scene_bytes, load_scene_with_stats};
 use std::path::Path;
 
+#[test]
+fn interior_has_at_least_500k_triangles_and_loads_identically_twice() {
+    let path = Path::new("scenes/interior.toml");
+    let (a, stats) = load_scene_with_stats(path).unwrap();
+    assert!(stats.triangles >= 500_000, "{} triangles", stats.triangles);
+    assert_eq!(stats.degenerate_triangles_skipped, 0);
+    assert!(stats.files_read.is_empty(), "generated at load time, no mesh file");
+    let (b, _) = load_scene_with_stats(path).unwrap();
+    assert_eq!(a.content_hash, b.content_hash);
+    assert!(a.primitives == b.primitives, "same triangles in the same order");
+    assert!(a.attrs == b.attrs);
+    // Two ceiling panels, each two triangles, are the only lights.
+    assert_eq!(a.lights.len(), 4);
+    // The committed reference was made from this very scene (same hash).
+    let sidecar = std::fs::read_to_string("references/interior.json").unwrap();
+    assert!(
+        sidecar.contains(&format!("\"scene_hash\": \"{}\"", a.content_hash)),
+        "references/interior.json is stale: run the command it records"
+    );
+}
+
 /// A one-quad scene (plus a light) with the floor's `subdivide` line replaced by `extra`.
 fn floor_scene(extra: &str) -> String {
     format!(
