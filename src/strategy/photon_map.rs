@@ -71,15 +71,16 @@
 //! cosine-distributed rays, secondary gathers for short ones), E = π/G Σ L_j.
 
 use super::path::{BsdfSampling, Direct, estimate_direct};
-use super::{Phase, Strategy, render_pixels};
+use super::{Figure, Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::error::{Error, Result};
-use crate::film::Film;
+use crate::film::{Film, Image};
 use crate::geometry::{Ray, spawn_ray};
 use crate::photon::irradiance_cache::{CacheRecord, IrradianceCache};
 use crate::photon::{
     CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
 };
+use crate::report::photons::{GATHER_SEES_PNG, IRRADIANCE_PNG, PRECOMPUTED_PNG, visible_pixels};
 use crate::resources;
 use crate::sampling::Rng;
 use crate::sampling::sample_cosine_hemisphere;
@@ -95,6 +96,10 @@ use std::time::Instant;
 /// Random-stream purpose of the irradiance cache's overture, `[CACHE_STREAM, pixel, 0]`: apart
 /// from the purposes of [`super::stream`] (kept local to leave that list to its owners).
 const CACHE_STREAM: u64 = 0x1CAC_4E00;
+
+/// Random-stream purpose of the Fig. 1 images' camera rays through delta surfaces,
+/// `[FIGURE_STREAM, pixel, 0]` ([`Strategy::figures`]).
+const FIGURE_STREAM: u64 = 0x1CF1_6000;
 
 pub const SUMMARY: &str = "photon mapping with final gathering, optional precomputed irradiance or irradiance caching (Jensen 1996; Christensen 1999; Ward 1988)";
 
@@ -469,6 +474,92 @@ impl Strategy for PhotonMapStrategy {
         })
     }
 
+    /// Christensen 1999, Fig. 1 (b)–(e), from this strategy's own maps (Fig. 1(a), the photon
+    /// map itself, is [`Strategy::photons`]). Every image shows radiance on the renders' scale,
+    /// so that one tone mapping (the renders' sRGB preview, exposure 0) serves them all:
+    /// irradiance E is shown as E/π, the radiance a white Lambertian surface under E reflects
+    /// (the paper's "dimmed for display"; π dims less than the paper's unstated factor but
+    /// keeps the images comparable with the final render and with each other).
+    /// - `IRRADIANCE_PNG` (Fig. 1b): the global map's N-nearest irradiance estimate at the first
+    ///   non-delta hit of each pixel centre's camera ray (through mirrors and glass, weighted by
+    ///   their reflectance), on the side the ray sees.
+    /// - `PRECOMPUTED_PNG` (Fig. 1c at `every = 1`, 1d at `every = 4`): only with precomputed
+    ///   irradiance: each photon holding an irradiance drawn where the camera sees it (as the
+    ///   photon image draws photons), the pixel showing the mean E/π of its visible photons,
+    ///   black where none is visible.
+    /// - `GATHER_SEES_PNG` (Fig. 1e, the scene "as the final gathering sees it", §3.2): at the
+    ///   same first hits, what a final-gather ray landing there reads ([`Renderer::lookup`]):
+    ///   ρ/π · E of the nearest precomputed photon, or the global map's radiance estimate.
+    ///
+    /// The delta chains draw from `[FIGURE_STREAM, pixel, 0]`, so the images depend on the seed
+    /// only, never on the thread count.
+    fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {
+        let Some(maps) = &self.maps else {
+            return Vec::new();
+        };
+        let r = Renderer {
+            scene,
+            params: &self.params,
+            maps,
+        };
+        let cam = &scene.camera;
+        let (width, height) = (cam.width, cam.height);
+        let hits: Vec<Option<(SurfaceHit, Vec3, Vec3)>> = (0..cam.pixel_count())
+            .into_par_iter()
+            .map(|pixel| {
+                let mut rng = Rng::for_task(seed, [FIGURE_STREAM, pixel as u64, 0]);
+                let (x, y) = (pixel % width as usize, pixel / width as usize);
+                let ray = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                r.first_diffuse_hit(ray, &mut rng)
+            })
+            .collect();
+        let at_hits = |f: &(dyn Fn(&SurfaceHit, &Bsdf, Vec3) -> Vec3 + Sync)| Image {
+            width,
+            height,
+            pixels: hits
+                .par_iter()
+                .map(|h| {
+                    h.as_ref()
+                        .map_or(Vec3::ZERO, |(hit, beta, wo)| *beta * f(hit, scene.bsdf(hit), *wo))
+                })
+                .collect(),
+        };
+        let mut figures = vec![Figure {
+            suffix: IRRADIANCE_PNG,
+            image: at_hits(&|hit, _, wo| {
+                maps.global
+                    .irradiance(hit.p, side_normal(hit, wo), &maps.estimate)
+                    .value
+                    * FRAC_1_PI
+            }),
+        }];
+        if let Some(irr) = &maps.irradiance {
+            let photons: Vec<(Vec3, Vec3)> = irr.photons().iter().map(|p| (p.position(), p.normal())).collect();
+            let mut sum = vec![Vec3::ZERO; cam.pixel_count()];
+            let mut count = vec![0u32; cam.pixel_count()];
+            for (photon, pixel) in irr.photons().iter().zip(visible_pixels(scene, &photons)) {
+                if let (Some(i), Some(e)) = (pixel, photon.irradiance()) {
+                    sum[i] += e * FRAC_1_PI;
+                    count[i] += 1;
+                }
+            }
+            let pixels = sum
+                .iter()
+                .zip(&count)
+                .map(|(&s, &n)| if n > 0 { s / n as f32 } else { Vec3::ZERO })
+                .collect();
+            figures.push(Figure {
+                suffix: PRECOMPUTED_PNG,
+                image: Image { width, height, pixels },
+            });
+        }
+        figures.push(Figure {
+            suffix: GATHER_SEES_PNG,
+            image: at_hits(&|hit, bsdf, wo| r.lookup(hit, bsdf, wo, &mut PhotonMapCounters::default())),
+        });
+        figures
+    }
+
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
         let p = &self.params;
         // A photon path stores about 1 / (1 − albedo) photons, plus caustic copies: budget 8.
@@ -747,15 +838,7 @@ impl Renderer<'_> {
                     c.secondary_gathers += 1;
                     return beta * self.shade(&hit, bsdf, wo_world, false, rng, c);
                 }
-                if let (Some(irr), Some(pre), Bsdf::Lambertian(lam)) =
-                    (&maps.irradiance, &self.params.precomputed_irradiance, bsdf)
-                {
-                    c.irradiance_lookups += 1;
-                    let n = side_normal(&hit, wo_world);
-                    return beta * irr.radiance_at(hit.p, n, lam.reflectance, pre.normal_dot);
-                }
-                c.map_estimates += 1;
-                return beta * self.map_radiance(&maps.global, &maps.estimate, &hit, bsdf, wo_world);
+                return beta * self.lookup(&hit, bsdf, wo_world, c);
             }
             if depth >= self.params.max_depth {
                 return Vec3::ZERO;
@@ -771,6 +854,40 @@ impl Renderer<'_> {
             ray = next;
             depth += 1;
         }
+    }
+
+    /// The outgoing radiance a gather ray reads at the non-delta hit `hit` towards `wo_world`
+    /// (no secondary gather): with precomputed irradiance and a Lambertian surface, ρ/π times
+    /// the irradiance of the nearest photon with a similar normal [Christensen 1999, §3.1];
+    /// otherwise the global map's radiance estimate with the BSDF.
+    fn lookup(&self, hit: &SurfaceHit, bsdf: &Bsdf, wo_world: Vec3, c: &mut PhotonMapCounters) -> Vec3 {
+        let maps = self.maps;
+        if let (Some(irr), Some(pre), Bsdf::Lambertian(lam)) =
+            (&maps.irradiance, &self.params.precomputed_irradiance, bsdf)
+        {
+            c.irradiance_lookups += 1;
+            let n = side_normal(hit, wo_world);
+            return irr.radiance_at(hit.p, n, lam.reflectance, pre.normal_dot);
+        }
+        c.map_estimates += 1;
+        self.map_radiance(&maps.global, &maps.estimate, hit, bsdf, wo_world)
+    }
+
+    /// The first non-delta hit of a camera ray, the throughput of the delta chain before it
+    /// and the direction back along the ray; `None` when the ray escapes or the chain ends.
+    fn first_diffuse_hit(&self, mut ray: Ray, rng: &mut Rng) -> Option<(SurfaceHit, Vec3, Vec3)> {
+        let mut beta = Vec3::ONE;
+        for _ in 0..=self.params.max_depth {
+            let hit = self.scene.intersect(&ray)?;
+            let bsdf = self.scene.bsdf(&hit);
+            if !bsdf.is_delta() {
+                return Some((hit, beta, -ray.d));
+            }
+            let (next, weight) = delta_bounce(&hit, bsdf, hit.frame.to_local(-ray.d), rng)?;
+            beta *= weight;
+            ray = next;
+        }
+        None
     }
 
     /// The irradiance cache's deterministic overture (see the module doc): rounds over pixel
