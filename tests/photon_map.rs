@@ -269,6 +269,9 @@ fn fig1_images_follow_the_maps_they_are_drawn_from() {
     // Every 4th photon in kd-tree order thins every region alike: the photons the camera sees
     // carry the same irradiance on average (measured: 0.1 % apart), though not the same photons.
     let rel = (mean(&c) - mean(&d)).abs() / mean(&c);
-    assert!(rel < 0.03, "precomputed at every photon vs every 4th, image means: {rel:.4}");
+    assert!(
+        rel < 0.03,
+        "precomputed at every photon vs every 4th, image means: {rel:.4}"
+    );
     assert_ne!(c, d);
 }
