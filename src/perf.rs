@@ -339,8 +339,8 @@ pub struct ScalePoint {
     pub kdtree_build_s: f64,
     /// `kdtree_build_s / (N log2 N)` in nanoseconds: flat when the build is O(N log N).
     pub kdtree_build_ns_per_n_log2_n: f64,
-    /// k = 50 nearest-neighbour queries (unbounded radius) per second at fixed surface points
-    /// seen by the camera, all threads.
+    /// k = 50 nearest-neighbour queries (unbounded radius) per second at fixed non-delta
+    /// surface points seen by the camera (where estimates are made), all threads.
     pub knn_queries_per_s: f64,
     pub queries: usize,
     pub threads: usize,
@@ -361,8 +361,8 @@ fn median3_s(mut f: impl FnMut()) -> f64 {
 
 /// `bench perf --photon-scale`: traces enough photons in `scene` to store the largest of
 /// `sizes` (doubling the emitted count from 100 000 until it does), then for each N in `sizes`
-/// builds the kd-tree over the first N stored photons and times `queries` k = 50 queries at
-/// the first hits of camera rays (the same points for every N: a balanced tree answers in
+/// builds the kd-tree over the first N stored photons and times k = 50 queries at the first
+/// hits of `queries` camera rays that land on non-delta surfaces (the same points for every N: a balanced tree answers in
 /// O(log N + k), so the rate should fall slowly with N).
 pub fn measure_photon_scale(scene: &Scene, sizes: &[usize], queries: usize) -> Vec<ScalePoint> {
     use crate::photon::{KdTree, TraceParams, trace_photons};
@@ -390,7 +390,9 @@ pub fn measure_photon_scale(scene: &Scene, sizes: &[usize], queries: usize) -> V
     let points: Vec<Vec3> = (0..queries)
         .filter_map(|i| {
             let (ray, _) = camera_ray(scene, seed + 1, i % pixels, (i / pixels) as u32);
-            scene.intersect(&ray).map(|h| h.p)
+            // Only where estimates are made: delta surfaces (mirror, glass) hold no photons,
+            // and an unbounded search from one sweeps a large ball.
+            scene.intersect(&ray).filter(|h| !scene.bsdf(h).is_delta()).map(|h| h.p)
         })
         .collect();
     sizes
