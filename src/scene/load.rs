@@ -1542,7 +1542,8 @@ emission = { radiance = [1, 1, 1] }
         assert_eq!(scene.name, "cornell-empty");
         assert_eq!(scene.materials.len(), 6);
         assert_eq!(stats.spheres, 1);
-        assert_eq!(stats.triangles, 2 + 2 + 12 + 1);
+        // Two quads (the second with `subdivide = 4`), a box with `subdivide = 2`, a triangle.
+        assert_eq!(stats.triangles, 2 + 2 * 4 * 4 + 12 * 2 * 2 + 1);
         assert_eq!(scene.user_paths.len(), 1);
     }
 
