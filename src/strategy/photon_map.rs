@@ -46,13 +46,17 @@
 //!   irradiance at every k-th photon (default 4) and looks it up for Lambertian gather hits with
 //!   normal agreement n_p · n > d (default 0.9) [Christensen 1999]; absent means full density
 //!   estimates at every gather hit.
-//! - `irradiance_cache` (absent): `{ error = a, min_distance, max_distance, gather_rays }`
+//! - `irradiance_cache` (absent): `{ error = a, min_distance, max_distance, gather_rays,
+//!   gradients }`
 //!   caches the indirect irradiance of Lambertian surfaces seen from the camera [Ward,
 //!   Rubinstein & Clear 1988] ([`crate::photon::irradiance_cache`]): a = `error` (default 0.2);
 //!   each record's harmonic mean distance R is clamped to [`min_distance`, `max_distance`]
 //!   (defaults 2 % and 50 % of the scene's bounding-box diagonal); a record gathers with
 //!   `gather_rays` rays (default 256: records are few, and a noisy record shows as a blotch
-//!   over its whole valid region). Absent means a final gather at every camera sample.
+//!   over its whole valid region); `gradients = true` (default false) stratifies each record's
+//!   gather in M × N polar strata (M ≈ √(G/π), N = G/M) and stores Ward & Heckbert's 1992
+//!   rotational and translational irradiance gradients, which the interpolation then uses.
+//!   Absent means a final gather at every camera sample.
 //!
 //! **Decision: a deterministic pre-pass fills the irradiance cache.** Ward fills the cache
 //! lazily while rendering; filled by parallel threads in a timing-dependent order, the records
@@ -76,7 +80,7 @@ use crate::bsdf::{Bsdf, TransportMode};
 use crate::error::{Error, Result};
 use crate::film::{Film, Image};
 use crate::geometry::{Ray, spawn_ray};
-use crate::photon::irradiance_cache::{CacheRecord, IrradianceCache};
+use crate::photon::irradiance_cache::{CacheRecord, Gradients, IrradianceCache, PolarStrata, gradients};
 use crate::photon::{
     CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
 };
@@ -133,6 +137,9 @@ pub struct IrradianceCaching {
     /// Final-gather rays of a record (default 256): records are few, and one noisy record
     /// shows as a blotch over its whole valid region.
     pub gather_rays: u32,
+    /// Estimate and interpolate with irradiance gradients [Ward & Heckbert 1992] (default
+    /// false: Ward 1988's plain weighted average).
+    pub gradients: bool,
 }
 
 impl Default for IrradianceCaching {
@@ -142,6 +149,7 @@ impl Default for IrradianceCaching {
             min_distance: None,
             max_distance: None,
             gather_rays: 256,
+            gradients: false,
         }
     }
 }
@@ -417,15 +425,17 @@ impl Strategy for PhotonMapStrategy {
                 opt(ic.min_distance),
                 opt(ic.max_distance),
                 ic.gather_rays.to_string(),
+                ic.gradients.to_string(),
             ],
-            None => ["none", "none", "none", "none"].map(String::from),
+            None => ["none", "none", "none", "none", "none"].map(String::from),
         };
-        let [error, min_distance, max_distance, rays] = cache;
+        let [error, min_distance, max_distance, rays, gradients] = cache;
         params.extend([
             ("irradiance_cache_error", error),
             ("irradiance_cache_min_distance", min_distance),
             ("irradiance_cache_max_distance", max_distance),
             ("irradiance_cache_gather_rays", rays),
+            ("irradiance_cache_gradients", gradients),
         ]);
         params
     }
@@ -922,7 +932,7 @@ impl Renderer<'_> {
                     let mut rng = Rng::for_task(seed, [CACHE_STREAM, pixel, 0]);
                     let mut c = PhotonMapCounters::default();
                     let ray = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-                    let record = self.cache_record(ray, &cache, caching.gather_rays, r_clamp, &mut rng, &mut c);
+                    let record = self.cache_record(ray, &cache, caching, r_clamp, &mut rng, &mut c);
                     counters.add(&c);
                     record
                 })
@@ -938,7 +948,7 @@ impl Renderer<'_> {
         &self,
         mut ray: Ray,
         cache: &IrradianceCache,
-        gather_rays: u32,
+        caching: &IrradianceCaching,
         (r_min, r_max): (f32, f32),
         rng: &mut Rng,
         c: &mut PhotonMapCounters,
@@ -958,10 +968,13 @@ impl Renderer<'_> {
             }
             // The final gather of `shade` with the cache's G, cosine-distributed about n:
             // E = π/G Σ L_j, and Ward's R = G / Σ 1/d_j (escaping rays count 1/d = 0).
-            let g = gather_rays as usize;
+            let g = caching.gather_rays as usize;
             let sign = if n.dot(hit.frame.n) >= 0.0 { 1.0 } else { -1.0 };
             let (mut sum, mut inverse_d) = (Vec3::ZERO, 0.0f32);
             c.final_gathers += 1;
+            if caching.gradients {
+                return Some(self.gradient_record(&hit, n, sign, g, (r_min, r_max), rng, c));
+            }
             for u in latin_hypercube(g, rng) {
                 c.gather_rays += 1;
                 let w = sample_cosine_hemisphere(u);
@@ -979,9 +992,60 @@ impl Renderer<'_> {
                 n,
                 e: sum * (PI / g as f32),
                 r: r.clamp(r_min, r_max),
+                gradients: None,
             });
         }
         None
+    }
+
+    /// A cache record at `hit` (normal `n` = `sign` × the shading normal) from a gather
+    /// stratified in [`PolarStrata`] for about `g` rays, with Ward & Heckbert's gradients
+    /// ([`crate::photon::irradiance_cache::gradients`]); E and R as in `cache_record`.
+    #[allow(clippy::too_many_arguments)]
+    fn gradient_record(
+        &self,
+        hit: &SurfaceHit,
+        n: Vec3,
+        sign: f32,
+        g: usize,
+        (r_min, r_max): (f32, f32),
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+    ) -> CacheRecord {
+        let strata = PolarStrata::for_rays(g);
+        let (mut l, mut d, mut w) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..strata.m {
+            for k in 0..strata.n {
+                let local = strata.direction(j, k, rng.uniform2());
+                let wi = hit.frame.to_world(Vec3::new(local.x, local.y, sign * local.z));
+                let (lj, dj) = if wi.dot(hit.ng) * sign <= 0.0 {
+                    (Vec3::ZERO, f32::INFINITY)
+                } else {
+                    c.gather_rays += 1;
+                    self.gather(spawn_ray(hit.p, hit.ng, wi), true, rng, c)
+                };
+                l.push(lj);
+                d.push(dj);
+                w.push(local);
+            }
+        }
+        let count = strata.len() as f32;
+        let inverse_d: f32 = d.iter().map(|d| 1.0 / d).sum();
+        let r = if inverse_d > 0.0 { count / inverse_d } else { r_max };
+        let (rotational, translational) = gradients(strata, &l, &d, &w);
+        // Tangent vectors map to the world through the shading frame on either side; the
+        // rotational gradient ∫ L (n × ω) dω changes sign with n (x, y, −n is left-handed).
+        let tangent = |v: Vec3| hit.frame.to_world(v);
+        CacheRecord {
+            p: hit.p,
+            n,
+            e: l.iter().copied().sum::<Vec3>() * (PI / count),
+            r: r.clamp(r_min, r_max),
+            gradients: Some(Gradients {
+                rotational: rotational.map(|v| tangent(v) * sign),
+                translational: translational.map(tangent),
+            }),
+        }
     }
 
     /// Radiance estimate of `map` at `hit` towards `wo_world` with the BSDF: on the side seen
