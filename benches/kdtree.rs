@@ -13,7 +13,13 @@
 //! - `knn_filtered` (ours only): the same with the estimate's normal test evaluated inside the
 //!   search, the form the radiance estimate uses.
 //!
-//! Run: `cargo bench --bench kdtree`.
+//! - `scale` (ours only): build on one thread and k = 50 queries (unbounded radius, 10 000
+//!   fixed queries, one thread) over the first N of 800 000 photons, N = 25 000 … 800 000:
+//!   build time should grow as N log N (criterion's per-element time grows as log N) and the
+//!   query rate fall slowly (O(log N + k)). `bench perf --photon-scale` measures the same on
+//!   all threads, on any scene.
+//!
+//! Run: `cargo bench --bench kdtree` (`cargo bench --bench kdtree -- scale` for the series).
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
@@ -150,5 +156,43 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+fn scale(c: &mut Criterion) {
+    const SIZES: [usize; 6] = [25_000, 50_000, 100_000, 200_000, 400_000, 800_000];
+    let all = photons(SIZES[SIZES.len() - 1], 1);
+    let queries: Vec<Vec3> = photons(10_000, 2).iter().map(Photon::position).collect();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a thread pool");
+    let mut g = c.benchmark_group("scale_build");
+    g.sample_size(10);
+    for n in SIZES {
+        g.throughput(Throughput::Elements(n as u64));
+        let data = all[..n].to_vec();
+        g.bench_with_input(BenchmarkId::from_parameter(n), &data, |b, data| {
+            b.iter(|| one.install(|| KdTree::build(black_box(data.clone()))))
+        });
+    }
+    g.finish();
+    let mut g = c.benchmark_group("scale_knn");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(queries.len() as u64));
+    let mut buf: Vec<Neighbour> = Vec::new();
+    for n in SIZES {
+        let tree = KdTree::build(all[..n].to_vec());
+        g.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| {
+                let mut sum = 0.0f32;
+                for q in &queries {
+                    tree.k_nearest_into(*q, K, f32::INFINITY, |_| true, &mut buf);
+                    sum += buf.last().map_or(0.0, |n| n.dist2);
+                }
+                sum
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, scale);
 criterion_main!(benches);

@@ -88,6 +88,10 @@ enum Command {
         /// Also append the figures to this CSV file.
         #[arg(long)]
         csv: Option<PathBuf>,
+        /// Instead: photon-map scale series on the scene (BVH build; photons traced/s; kd-tree
+        /// build time and k-NN queries/s for N = 25 000 … 1 600 000 global photons).
+        #[arg(long)]
+        photon_scale: bool,
     },
     /// Redraw every plot of a run directory from its metrics.csv alone.
     Plot {
@@ -263,11 +267,45 @@ fn run_command(command: Command) -> Result<Status> {
             spp,
             max_depth,
             csv,
+            photon_scale,
         } => {
             if spp == 0 || spp > 1 << 16 {
                 return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 16)));
             }
             let scene = load_scene(&scene)?;
+            if photon_scale {
+                let sizes = [25_000, 50_000, 100_000, 200_000, 400_000, 800_000, 1_600_000];
+                let points = photon_bench::perf::measure_photon_scale(&scene, &sizes, 100_000);
+                let Some(first) = points.first() else {
+                    return Err(Error::new(format!("{}: no photon stored", scene.source.display())));
+                };
+                println!(
+                    "{}: {} primitives, BVH build {:.3} s; photons traced {:.0}/s emitted, {:.0}/s stored; \
+                     {} threads ({}), git {}",
+                    first.scene,
+                    first.primitives,
+                    first.bvh_build_s,
+                    first.photons_emitted_per_s,
+                    first.photons_stored_per_s,
+                    first.threads,
+                    first.cpu,
+                    first.git_revision
+                );
+                println!(
+                    "  {:>9}  {:>13}  {:>16}  {:>14}",
+                    "N", "kd build s", "ns / (N log2 N)", "k-NN q/s (50)"
+                );
+                for p in &points {
+                    println!(
+                        "  {:>9}  {:>13.4}  {:>16.2}  {:>14.0}",
+                        p.photons, p.kdtree_build_s, p.kdtree_build_ns_per_n_log2_n, p.knn_queries_per_s
+                    );
+                }
+                if let Some(path) = csv {
+                    photon_bench::perf::append_scale_csv(&points, &path)?;
+                }
+                return Ok(Status::Success);
+            }
             // No Russian roulette, like Mitsuba's path integrator below its rr_depth.
             let params = PathParams {
                 max_depth,

@@ -319,3 +319,132 @@ pub fn append_csv(report: &PerfReport, path: &std::path::Path) -> crate::Result<
     w.serialize(report).context(path.display())?;
     w.flush().context(path.display())
 }
+
+/// One point of `bench perf --photon-scale`: photon tracing, kd-tree build and k-NN queries at
+/// one global-map size N, with the scene's BVH build for scale.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ScalePoint {
+    pub scene: String,
+    /// Triangles and spheres of the scene.
+    pub primitives: usize,
+    /// Seconds to build the scene's BVH (median of 3).
+    pub bvh_build_s: f64,
+    /// Photon paths emitted per second by the trace that produced the photons (all threads).
+    pub photons_emitted_per_s: f64,
+    /// Photons stored per second by that trace.
+    pub photons_stored_per_s: f64,
+    /// N: global-map photons in the kd-tree (the first N stored).
+    pub photons: usize,
+    /// Seconds to build the balanced kd-tree over N photons (median of 3, all threads).
+    pub kdtree_build_s: f64,
+    /// `kdtree_build_s / (N log2 N)` in nanoseconds: flat when the build is O(N log N).
+    pub kdtree_build_ns_per_n_log2_n: f64,
+    /// k = 50 nearest-neighbour queries (unbounded radius) per second at fixed non-delta
+    /// surface points seen by the camera (where estimates are made), all threads.
+    pub knn_queries_per_s: f64,
+    pub queries: usize,
+    pub threads: usize,
+    pub cpu: String,
+    pub git_revision: String,
+}
+
+/// Median of three timings of `f`, in seconds.
+fn median3_s(mut f: impl FnMut()) -> f64 {
+    let mut t: [f64; 3] = std::array::from_fn(|_| {
+        let start = Instant::now();
+        f();
+        start.elapsed().as_secs_f64()
+    });
+    t.sort_by(f64::total_cmp);
+    t[1]
+}
+
+/// `bench perf --photon-scale`: traces enough photons in `scene` to store the largest of
+/// `sizes` (doubling the emitted count from 100 000 until it does), then for each N in `sizes`
+/// builds the kd-tree over the first N stored photons and times k = 50 queries at the first
+/// hits of `queries` camera rays that land on non-delta surfaces (the same points for every N: a balanced tree answers in
+/// O(log N + k), so the rate should fall slowly with N).
+pub fn measure_photon_scale(scene: &Scene, sizes: &[usize], queries: usize) -> Vec<ScalePoint> {
+    use crate::photon::{KdTree, TraceParams, trace_photons};
+    let seed = 0;
+    let bvh_build_s = median3_s(|| {
+        std::hint::black_box(crate::geometry::Accel::build(&scene.primitives));
+    });
+    let largest = sizes.iter().copied().max().unwrap_or(0);
+    let mut emitted = 100_000u64;
+    let (traced, trace_s) = loop {
+        let params = TraceParams {
+            photons: emitted,
+            ..TraceParams::default()
+        };
+        let start = Instant::now();
+        let traced = trace_photons(scene, &params, seed);
+        let s = start.elapsed().as_secs_f64();
+        if traced.global.len() >= largest || emitted >= 1 << 26 {
+            break (traced, s);
+        }
+        emitted *= 2;
+    };
+    let stored = traced.global.len() + traced.caustic.len();
+    let pixels = scene.camera.pixel_count();
+    let points: Vec<Vec3> = (0..queries)
+        .filter_map(|i| {
+            let (ray, _) = camera_ray(scene, seed + 1, i % pixels, (i / pixels) as u32);
+            // Only where estimates are made: delta surfaces (mirror, glass) hold no photons,
+            // and an unbounded search from one sweeps a large ball.
+            scene.intersect(&ray).filter(|h| !scene.bsdf(h).is_delta()).map(|h| h.p)
+        })
+        .collect();
+    sizes
+        .iter()
+        .filter(|&&n| n <= traced.global.len())
+        .map(|&n| {
+            let photons = &traced.global[..n];
+            let kdtree_build_s = median3_s(|| {
+                std::hint::black_box(KdTree::build(photons.to_vec()));
+            });
+            let tree = KdTree::build(photons.to_vec());
+            let start = Instant::now();
+            let found: usize = points
+                .par_iter()
+                .map_init(Vec::new, |buf, &p| {
+                    tree.k_nearest_into(p, 50, f32::INFINITY, |_| true, buf);
+                    buf.len()
+                })
+                .sum();
+            let knn_s = start.elapsed().as_secs_f64();
+            std::hint::black_box(found);
+            ScalePoint {
+                scene: scene.name.clone(),
+                primitives: scene.primitives.len(),
+                bvh_build_s,
+                photons_emitted_per_s: emitted as f64 / trace_s,
+                photons_stored_per_s: stored as f64 / trace_s,
+                photons: n,
+                kdtree_build_s,
+                kdtree_build_ns_per_n_log2_n: kdtree_build_s * 1e9 / (n as f64 * (n as f64).log2()),
+                knn_queries_per_s: points.len() as f64 / knn_s,
+                queries: points.len(),
+                threads: rayon::current_num_threads(),
+                cpu: crate::util::cpu_model(),
+                git_revision: crate::util::git_revision(),
+            }
+        })
+        .collect()
+}
+
+/// Appends scale points to a CSV file (header written when the file is new).
+pub fn append_scale_csv(points: &[ScalePoint], path: &std::path::Path) -> crate::Result<()> {
+    use crate::error::Context;
+    let exists = path.exists();
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .context(path.display())?;
+    let mut w = csv::WriterBuilder::new().has_headers(!exists).from_writer(file);
+    for p in points {
+        w.serialize(p).context(path.display())?;
+    }
+    w.flush().context(path.display())
+}

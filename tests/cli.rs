@@ -678,4 +678,40 @@ precomputed_irradiance = { every = 4 }
             .unwrap()
             .contains("final_gather.csv")
     );
+    assert_fig1_images_written_and_linked(&run);
+    // A second run reuses every cell from the cache and still has (and links) every figure.
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("0 rendered"), "{}", stderr(&o));
+    assert_fig1_images_written_and_linked(&root.join(String::from_utf8_lossy(&o.stdout).trim()));
+}
+
+/// Christensen 1999 Fig. 1 (a)–(e) for every photon-map cell of the run above: the photon map,
+/// the irradiance at the image points and what the gather reads for all three, the precomputed
+/// irradiance only for the two with `precomputed_irradiance`; each PNG of the scene's
+/// resolution and linked from summary.md and index.html.
+fn assert_fig1_images_written_and_linked(run: &Path) {
+    let summary = std::fs::read_to_string(run.join("summary.md")).unwrap();
+    let index = std::fs::read_to_string(run.join("index.html")).unwrap();
+    assert!(summary.contains("### photon-map figures"), "{summary}");
+    for label in ["direct", "pre4", "other"] {
+        for seed in [0, 1] {
+            for (suffix, present) in [
+                ("_photons.png", true),
+                ("_fig1b_irradiance.png", true),
+                ("_fig1cd_precomputed.png", label != "direct"),
+                ("_fig1e_gather_sees.png", true),
+            ] {
+                let rel = format!("images/tiny_{label}_seed{seed}{suffix}");
+                let path = run.join(&rel);
+                assert_eq!(path.is_file(), present, "{rel}");
+                if present {
+                    let png = image::open(&path).unwrap();
+                    assert_eq!((png.width(), png.height()), (16, 12), "{rel}");
+                    assert!(summary.contains(&format!("]({rel})")), "{rel} in summary.md");
+                    assert!(index.contains(&format!("src=\"{rel}\"")), "{rel} in index.html");
+                }
+            }
+        }
+    }
 }

@@ -375,24 +375,17 @@ fn link_images(cell: &Path, rows: &[Row], dir: &Path) -> Result<()> {
             link(&rel)?;
         }
     }
-    // The cell's photon distribution image, if its strategy stores photons.
-    if let Some(first) = rows.first() {
-        let image = Path::new(&first.image);
-        let stem = image
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let cell_stem = stem.rsplit_once('_').map_or(stem.as_str(), |(a, _)| a);
-        let rel = image.with_file_name(format!("{cell_stem}{PHOTONS_PNG}"));
-        if cell.join(&rel).exists() {
-            link(&rel)?;
+    // The cell's other images: photon distribution and Christensen 1999 Fig. 1 figures.
+    if let Ok(entries) = std::fs::read_dir(cell.join("images")) {
+        for entry in entries.flatten() {
+            let rel = Path::new("images").join(entry.file_name());
+            if !dir.join(&rel).exists() {
+                link(&rel)?;
+            }
         }
     }
     Ok(())
 }
-
-/// Suffix of a cell's photon distribution image ([`crate::report::photons`]).
-const PHOTONS_PNG: &str = "_photons.png";
 
 /// A run id that sorts by time and never collides with an earlier run in `base`.
 fn new_run_id(base: &Path) -> String {
@@ -702,8 +695,14 @@ fn render_cell(
     let stem = format!("{}_{}_seed{seed}", p.scene.name, spec.file_stem());
     let photons = strategy.photons();
     if !photons.is_empty() {
-        let path = dir.join("images").join(format!("{stem}{PHOTONS_PNG}"));
+        let path = dir
+            .join("images")
+            .join(format!("{stem}{}", crate::report::photons::PHOTONS_PNG));
         crate::report::photons::write_photon_image(&p.scene, &photons, &path)?;
+    }
+    for figure in strategy.figures(&p.scene, seed) {
+        let path = dir.join("images").join(format!("{stem}{}", figure.suffix));
+        crate::film::write_png(&figure.image, &path, 0.0)?;
     }
     let mut rows = Vec::new();
 

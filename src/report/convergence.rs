@@ -269,6 +269,7 @@ pub fn write_summary(
             let _ = writeln!(md);
         }
         let _ = write!(md, "{}", super::final_gather::markdown(gathers, scene));
+        let _ = write!(md, "{}", super::photons::markdown(rows, scene, dir));
         if let Some(table) = super::counters::table(rows, scene) {
             let _ = writeln!(
                 md,

@@ -171,6 +171,16 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
             let _ = writeln!(h, "</table>");
         }
 
+        let figures = super::photons::figure_links(rows, scene, dir);
+        if !figures.is_empty() {
+            let _ = writeln!(
+                h,
+                "<h3>Photon-map figures</h3>\n<p>Christensen 1999, Fig. 1; radiance and E/π shown like the renders.</p>"
+            );
+        }
+        for (rel, caption) in &figures {
+            figure(&mut h, "px", rel, caption);
+        }
         let _ = writeln!(h, "<h3>Images</h3>");
         for at in &largest {
             let Some(g) = at.first() else { continue };

@@ -1,9 +1,18 @@
-//! Photon distribution images [Fan et al. 2005, Fig. 2]: where a strategy's global-map photons
-//! lie, as the camera sees them. Each photon in front of the camera and visible from the eye
-//! counts in the pixel it projects to; counts are shown on a log scale (viridis, black for no
-//! photon), so standard photon mapping's photons spread over everything the lights reach
-//! while Metropolis photon sampling's gather where the final gather looks.
+//! Photon-map figures written beside a cell's renders.
+//!
+//! - Photon distribution images [Fan et al. 2005, Fig. 2; Christensen 1999, Fig. 1a]: where a
+//!   strategy's global-map photons lie, as the camera sees them. Each photon in front of the
+//!   camera and visible from the eye counts in the pixel it projects to; counts are shown on a
+//!   log scale (viridis, black for no photon), so standard photon mapping's photons spread over
+//!   everything the lights reach while Metropolis photon sampling's gather where the final
+//!   gather looks.
+//! - Christensen 1999, Fig. 1 (b)–(e), drawn by the strategy itself
+//!   ([`crate::strategy::Strategy::figures`]) and written as sRGB previews like the renders.
+//!
+//! [`FIGURES`] lists every suffix with its caption; `summary.md` and `index.html` link the
+//! files a run wrote ([`figure_links`]).
 
+use super::rows::Row;
 use crate::error::Result;
 use crate::film::{viridis, write_rgb8_png};
 use crate::geometry::spawn_shadow_ray;
@@ -12,10 +21,86 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::path::Path;
 
-/// Visible photons per pixel.
-pub fn photon_counts(scene: &Scene, photons: &[(Vec3, Vec3)]) -> Vec<u32> {
+/// Suffix of a cell's photon distribution image (Fig. 1a).
+pub const PHOTONS_PNG: &str = "_photons.png";
+/// Suffix of the irradiance estimated at the image points (Fig. 1b).
+pub const IRRADIANCE_PNG: &str = "_fig1b_irradiance.png";
+/// Suffix of the precomputed irradiance at the photons (Fig. 1c, 1d).
+pub const PRECOMPUTED_PNG: &str = "_fig1cd_precomputed.png";
+/// Suffix of the radiance the final gather reads (Fig. 1e).
+pub const GATHER_SEES_PNG: &str = "_fig1e_gather_sees.png";
+
+/// Every figure a cell may write, with its caption, in the paper's order.
+pub const FIGURES: [(&str, &str); 4] = [
+    (
+        PHOTONS_PNG,
+        "(a) global photon map: visible photons per pixel, log scale (viridis)",
+    ),
+    (
+        IRRADIANCE_PNG,
+        "(b) irradiance estimated from the global map at each pixel's first diffuse hit, shown as E/π",
+    ),
+    (
+        PRECOMPUTED_PNG,
+        "(c, d) precomputed irradiance at the photons that hold it, as the camera sees them, shown as E/π",
+    ),
+    (
+        GATHER_SEES_PNG,
+        "(e) what final-gather rays read at each pixel's first diffuse hit (ρ/π · E, or the map's radiance estimate)",
+    ),
+];
+
+/// The figures of `scene`'s cells that exist in the run directory `dir`: (path relative to
+/// `dir`, caption naming the strategy and seed), cell by cell in row order, each cell's in
+/// [`FIGURES`] order.
+pub fn figure_links(rows: &[Row], scene: &str, dir: &Path) -> Vec<(String, String)> {
+    let mut cells: Vec<(String, &str, u64)> = Vec::new();
+    for r in rows.iter().filter(|r| r.scene == scene) {
+        // `images/<cell>_spp<N>.exr` or `images/<cell>_t<T>s.exr`: the cell is all before the last `_`.
+        let image = Path::new(&r.image);
+        let Some(stem) = image.file_stem().map(|s| s.to_string_lossy().into_owned()) else {
+            continue;
+        };
+        let cell = stem.rsplit_once('_').map_or(stem.as_str(), |(a, _)| a);
+        let prefix = image.with_file_name(cell).display().to_string();
+        if !cells.iter().any(|(p, _, _)| *p == prefix) {
+            cells.push((prefix, &r.strategy, r.seed));
+        }
+    }
+    let mut links = Vec::new();
+    for (prefix, strategy, seed) in cells {
+        for (suffix, caption) in FIGURES {
+            let rel = format!("{prefix}{suffix}");
+            if dir.join(&rel).is_file() {
+                links.push((rel, format!("{strategy} · seed {seed} · {caption}")));
+            }
+        }
+    }
+    links
+}
+
+/// The `summary.md` section of [`figure_links`] (empty when there is none).
+pub fn markdown(rows: &[Row], scene: &str, dir: &Path) -> String {
+    let links = figure_links(rows, scene, dir);
+    if links.is_empty() {
+        return String::new();
+    }
+    let mut md = String::from(
+        "### photon-map figures\n\nChristensen 1999, Fig. 1, for each photon-map cell. Radiance and E/π are \
+         shown like the renders (linear, clamped to 1, sRGB); photon counts on a log scale.\n\n",
+    );
+    for (rel, caption) in links {
+        md.push_str(&format!("- [{caption}]({rel})\n"));
+    }
+    md.push('\n');
+    md
+}
+
+/// The pixel each photon (position, normal) projects to, if it lies in front of the camera and
+/// the eye sees it.
+pub fn visible_pixels(scene: &Scene, photons: &[(Vec3, Vec3)]) -> Vec<Option<usize>> {
     let cam = &scene.camera;
-    let pixels: Vec<Option<usize>> = photons
+    photons
         .par_iter()
         .map(|&(p, n)| {
             let d = p - cam.eye;
@@ -23,9 +108,13 @@ pub fn photon_counts(scene: &Scene, photons: &[(Vec3, Vec3)]) -> Vec<u32> {
             let (ray, dist) = spawn_shadow_ray(cam.eye, cam.forward(), p, n);
             (dist > 0.0 && scene.unoccluded(&ray)).then(|| raster.y as usize * cam.width as usize + raster.x as usize)
         })
-        .collect();
-    let mut counts = vec![0u32; cam.pixel_count()];
-    for i in pixels.into_iter().flatten() {
+        .collect()
+}
+
+/// Visible photons per pixel.
+pub fn photon_counts(scene: &Scene, photons: &[(Vec3, Vec3)]) -> Vec<u32> {
+    let mut counts = vec![0u32; scene.camera.pixel_count()];
+    for i in visible_pixels(scene, photons).into_iter().flatten() {
         counts[i] += 1;
     }
     counts

@@ -56,6 +56,7 @@
 //! size = [0.13, 0.105]              # in-plane extents in x, y, z order: ±x [y, z], ±y [x, z],
 //!                                   # ±z [x, y]; each > 0
 //! facing = "+y"                     # normal axis: "+x" "-x" "+y" "-y" "+z" "-z"; default "+y"
+//! subdivide = 4                     # optional, default 1: an n × n grid of cells, 2n² triangles
 //! emission = { radiance = [17, 12, 4], two_sided = false }   # an area light; two_sided
 //!                                   # is optional, default false
 //! [[shapes]]
@@ -65,6 +66,7 @@
 //! max = [0.5, 0.5, 0.5]
 //! # center = [0, 0, 0]; size = [1, 1, 1]   # ... or center and size (each > 0)
 //! transform = { scale = [0.16, 0.33, 0.16], rotate_y = 15.0, translate = [0.37, 0.165, 0.35] }
+//! subdivide = 2                     # optional, as for quads: each face n × n cells, 12n² triangles
 //! [[shapes]]
 //! type = "sphere"
 //! material = "glass"
@@ -99,6 +101,15 @@
 //! counted ([`super::load::LoadStats`]); a mesh with no triangle left is refused. The MTL files
 //! an OBJ names are read only for the content hash: the scene's `material` applies to the
 //! whole mesh, and a missing MTL is ignored.
+//!
+//! **Subdivision.** `subdivide = n` (an integer in 1..=[`super::load::MAX_SUBDIVIDE`]) splits
+//! a quad, or each face of a box, into an n × n grid of equal parallelograms, two triangles
+//! each, in a fixed order (row by row from the corner, along `edge_u` first). The surface is
+//! the same; only the triangle count grows. Radiosity-era interiors such as Christensen 1999's
+//! (1.05 M polygons) owe much of their polygon count to such meshing, and `scenes/interior.toml`
+//! uses it to reach a comparable scale for BVH and photon-tracing measurements. The scene's
+//! content hash covers the value (it is in the scene file) and a version tag of the
+//! tessellation code, so a change to the tessellation invalidates references and cached cells.
 //!
 //! **Lights.** Any shape with an `emission` is an area light; each of its triangles (or the
 //! sphere) emits `radiance` (each channel in [0, 1e10]) from its front side, or from both
@@ -278,6 +289,8 @@ pub struct Quad {
     pub size: Option<Fixed<f64, 2>>,
     /// The axis the front side faces: "+x", "-x", "+y", "-y", "+z" or "-z" (default "+y").
     pub facing: Option<String>,
+    /// Cells per edge of the tessellation (default 1: two triangles).
+    pub subdivide: Option<i64>,
     pub transform: Option<TransformDesc>,
     pub emission: Option<EmissionDesc>,
 }
@@ -292,6 +305,8 @@ pub struct Cuboid {
     pub max: Option<Triple>,
     pub center: Option<Triple>,
     pub size: Option<Triple>,
+    /// Cells per edge of each face's tessellation (default 1: two triangles per face).
+    pub subdivide: Option<i64>,
     pub transform: Option<TransformDesc>,
     pub emission: Option<EmissionDesc>,
 }

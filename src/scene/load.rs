@@ -43,6 +43,14 @@ pub const MAX_PIXELS: u64 = 64 << 20;
 pub const MAX_RADIANCE: f64 = 1e10;
 /// Largest Phong exponent; beyond it the lobe is a mirror for any practical purpose.
 pub const MAX_PHONG_EXPONENT: f64 = 1e6;
+/// Largest `subdivide` of a quad or box: 2 · 1024² ≈ 2 M triangles per face.
+pub const MAX_SUBDIVIDE: i64 = 1024;
+/// Memory budgeted per triangle when checking a subdivided shape against the memory limit: the
+/// primitive, its attributes, its BVH share and its light entry, rounded up.
+const BYTES_PER_TRIANGLE: u64 = 256;
+/// Enters the content hash of every scene that subdivides a shape: bump it when the
+/// tessellation changes, so that references and cached cells made with the old one go stale.
+const SUBDIVIDE_HASH_TAG: &[u8] = b"photon-bench subdivide v1";
 /// A user path's first point must lie within this fraction of the scene's bounding-box diagonal
 /// from an emissive surface.
 pub const USER_PATH_LIGHT_TOLERANCE: f64 = 1e-3;
@@ -878,7 +886,8 @@ impl Builder<'_> {
         match shape {
             ShapeDesc::Quad(q) => {
                 let (corner, u, v) = quad_frame(ctx, field, q)?;
-                self.quad(field, &xf, corner, u, v, attrs)
+                let n = self.subdivision(field, q.subdivide, 2)?;
+                self.quad(field, &xf, corner, u, v, n, attrs)
             }
             ShapeDesc::Box(b) => {
                 let (lo, hi) = match (b.min, b.max, b.center, b.size) {
@@ -906,6 +915,7 @@ impl Builder<'_> {
                         return Err(ctx.err(field, "a box needs either `min` and `max` or `center` and `size`"));
                     }
                 };
+                let n = self.subdivision(field, b.subdivide, 12)?;
                 let d = hi - lo;
                 let (x, y, z) = (d.x * DVec3::X, d.y * DVec3::Y, d.z * DVec3::Z);
                 // Six faces, each edge_u × edge_v pointing out of the box.
@@ -918,7 +928,7 @@ impl Builder<'_> {
                     (DVec3::new(lo.x, lo.y, hi.z), x, y),
                 ];
                 for (corner, u, v) in faces {
-                    self.quad(field, &xf, corner, u, v, attrs)?;
+                    self.quad(field, &xf, corner, u, v, n, attrs)?;
                 }
                 Ok(())
             }
@@ -960,9 +970,52 @@ impl Builder<'_> {
         }
     }
 
-    /// Adds the parallelogram corner + s·u + t·v as two triangles facing u × v.
-    fn quad(&mut self, field: &str, xf: &Xform, corner: DVec3, u: DVec3, v: DVec3, attrs: PrimAttrs) -> Result<()> {
-        let (a, b, c, d) = (corner, corner + u, corner + u + v, corner + v);
+    /// The validated `subdivide` of `field` (default 1), after checking that the
+    /// `triangles_per_cell` · n² triangles it adds fit in the memory limit.
+    fn subdivision(&mut self, field: &str, subdivide: Option<i64>, triangles_per_cell: u64) -> Result<u32> {
+        let Some(n) = subdivide else { return Ok(1) };
+        let field = format!("{field}.subdivide");
+        if !(1..=MAX_SUBDIVIDE).contains(&n) {
+            return Err(self.ctx.err(
+                &field,
+                format!("expected an integer in 1..={MAX_SUBDIVIDE} (cells per edge), got {n}"),
+            ));
+        }
+        let triangles = self.primitives.len() as u64 + triangles_per_cell * (n * n) as u64;
+        check_memory("the scene's triangles", triangles * BYTES_PER_TRIANGLE, memory_limit()?)
+            .map_err(|e| self.ctx.err(&field, e))?;
+        if n > 1 && !self.hashed.iter().any(|h| h == SUBDIVIDE_HASH_TAG) {
+            self.hashed.push(SUBDIVIDE_HASH_TAG.to_vec());
+        }
+        Ok(n as u32)
+    }
+
+    /// Adds the parallelogram corner + s·u + t·v as an n × n grid of cells, two triangles each,
+    /// facing u × v. Cell corners are computed from the integer grid indices (never by
+    /// accumulating steps), so neighbouring cells share their vertices exactly: no cracks.
+    #[allow(clippy::too_many_arguments)]
+    fn quad(
+        &mut self,
+        field: &str,
+        xf: &Xform,
+        corner: DVec3,
+        u: DVec3,
+        v: DVec3,
+        n: u32,
+        attrs: PrimAttrs,
+    ) -> Result<()> {
+        let at = |i: u32, j: u32| corner + u * (f64::from(i) / f64::from(n)) + v * (f64::from(j) / f64::from(n));
+        for j in 0..n {
+            for i in 0..n {
+                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                self.cell(field, xf, [a, b, c, d], attrs)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds one parallelogram a b c d (counter-clockwise about its front) as two triangles.
+    fn cell(&mut self, field: &str, xf: &Xform, [a, b, c, d]: [DVec3; 4], attrs: PrimAttrs) -> Result<()> {
         for tri in [[a, b, c], [a, c, d]] {
             match self.triangle(xf, tri, None, attrs) {
                 Ok(()) => {}
@@ -1543,7 +1596,8 @@ emission = { radiance = [1, 1, 1] }
         assert_eq!(scene.name, "cornell-empty");
         assert_eq!(scene.materials.len(), 6);
         assert_eq!(stats.spheres, 1);
-        assert_eq!(stats.triangles, 2 + 2 + 12 + 1);
+        // Two quads (the second with `subdivide = 4`), a box with `subdivide = 2`, a triangle.
+        assert_eq!(stats.triangles, 2 + 2 * 4 * 4 + 12 * 2 * 2 + 1);
         assert_eq!(scene.user_paths.len(), 1);
     }
 

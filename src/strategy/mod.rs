@@ -61,6 +61,21 @@ pub trait Strategy: Send + Sync {
     fn photons(&self) -> Vec<(Vec3, Vec3)> {
         Vec::new()
     }
+
+    /// Diagnostic images of what `prepare` built (Christensen 1999, Fig. 1: irradiance at the
+    /// image points, precomputed irradiance, what the final gather sees), in linear RGB on the
+    /// renders' radiance scale; written beside the renders as `<cell><suffix>`. Empty by default.
+    fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {
+        let _ = (scene, seed);
+        Vec::new()
+    }
+}
+
+/// A diagnostic image of a strategy ([`Strategy::figures`]): the file name suffix (one of
+/// [`crate::report::photons::FIGURES`]) and the image.
+pub struct Figure {
+    pub suffix: &'static str,
+    pub image: crate::film::Image,
 }
 
 /// Stream purposes, so that different uses of one seed never share random numbers.

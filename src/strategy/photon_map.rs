@@ -46,13 +46,17 @@
 //!   irradiance at every k-th photon (default 4) and looks it up for Lambertian gather hits with
 //!   normal agreement n_p · n > d (default 0.9) [Christensen 1999]; absent means full density
 //!   estimates at every gather hit.
-//! - `irradiance_cache` (absent): `{ error = a, min_distance, max_distance, gather_rays }`
+//! - `irradiance_cache` (absent): `{ error = a, min_distance, max_distance, gather_rays,
+//!   gradients }`
 //!   caches the indirect irradiance of Lambertian surfaces seen from the camera [Ward,
 //!   Rubinstein & Clear 1988] ([`crate::photon::irradiance_cache`]): a = `error` (default 0.2);
 //!   each record's harmonic mean distance R is clamped to [`min_distance`, `max_distance`]
 //!   (defaults 2 % and 50 % of the scene's bounding-box diagonal); a record gathers with
 //!   `gather_rays` rays (default 256: records are few, and a noisy record shows as a blotch
-//!   over its whole valid region). Absent means a final gather at every camera sample.
+//!   over its whole valid region); `gradients = true` (default false) stratifies each record's
+//!   gather in M × N polar strata (M ≈ √(G/π), N = G/M) and stores Ward & Heckbert's 1992
+//!   rotational and translational irradiance gradients, which the interpolation then uses.
+//!   Absent means a final gather at every camera sample.
 //!
 //! **Decision: a deterministic pre-pass fills the irradiance cache.** Ward fills the cache
 //! lazily while rendering; filled by parallel threads in a timing-dependent order, the records
@@ -71,15 +75,16 @@
 //! cosine-distributed rays, secondary gathers for short ones), E = π/G Σ L_j.
 
 use super::path::{BsdfSampling, Direct, estimate_direct};
-use super::{Phase, Strategy, render_pixels};
+use super::{Figure, Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::error::{Error, Result};
-use crate::film::Film;
+use crate::film::{Film, Image};
 use crate::geometry::{Ray, spawn_ray};
-use crate::photon::irradiance_cache::{CacheRecord, IrradianceCache};
+use crate::photon::irradiance_cache::{CacheRecord, Gradients, IrradianceCache, PolarStrata, gradients};
 use crate::photon::{
     CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
 };
+use crate::report::photons::{GATHER_SEES_PNG, IRRADIANCE_PNG, PRECOMPUTED_PNG, visible_pixels};
 use crate::resources;
 use crate::sampling::Rng;
 use crate::sampling::sample_cosine_hemisphere;
@@ -95,6 +100,10 @@ use std::time::Instant;
 /// Random-stream purpose of the irradiance cache's overture, `[CACHE_STREAM, pixel, 0]`: apart
 /// from the purposes of [`super::stream`] (kept local to leave that list to its owners).
 const CACHE_STREAM: u64 = 0x1CAC_4E00;
+
+/// Random-stream purpose of the Fig. 1 images' camera rays through delta surfaces,
+/// `[FIGURE_STREAM, pixel, 0]` ([`Strategy::figures`]).
+const FIGURE_STREAM: u64 = 0x1CF1_6000;
 
 pub const SUMMARY: &str = "photon mapping with final gathering, optional precomputed irradiance or irradiance caching (Jensen 1996; Christensen 1999; Ward 1988)";
 
@@ -128,6 +137,9 @@ pub struct IrradianceCaching {
     /// Final-gather rays of a record (default 256): records are few, and one noisy record
     /// shows as a blotch over its whole valid region.
     pub gather_rays: u32,
+    /// Estimate and interpolate with irradiance gradients [Ward & Heckbert 1992] (default
+    /// false: Ward 1988's plain weighted average).
+    pub gradients: bool,
 }
 
 impl Default for IrradianceCaching {
@@ -137,6 +149,7 @@ impl Default for IrradianceCaching {
             min_distance: None,
             max_distance: None,
             gather_rays: 256,
+            gradients: false,
         }
     }
 }
@@ -412,15 +425,17 @@ impl Strategy for PhotonMapStrategy {
                 opt(ic.min_distance),
                 opt(ic.max_distance),
                 ic.gather_rays.to_string(),
+                ic.gradients.to_string(),
             ],
-            None => ["none", "none", "none", "none"].map(String::from),
+            None => ["none", "none", "none", "none", "none"].map(String::from),
         };
-        let [error, min_distance, max_distance, rays] = cache;
+        let [error, min_distance, max_distance, rays, gradients] = cache;
         params.extend([
             ("irradiance_cache_error", error),
             ("irradiance_cache_min_distance", min_distance),
             ("irradiance_cache_max_distance", max_distance),
             ("irradiance_cache_gather_rays", rays),
+            ("irradiance_cache_gradients", gradients),
         ]);
         params
     }
@@ -467,6 +482,92 @@ impl Strategy for PhotonMapStrategy {
         self.maps.as_ref().map_or_else(Vec::new, |m| {
             m.global.photons().iter().map(|p| (p.position(), p.normal())).collect()
         })
+    }
+
+    /// Christensen 1999, Fig. 1 (b)–(e), from this strategy's own maps (Fig. 1(a), the photon
+    /// map itself, is [`Strategy::photons`]). Every image shows radiance on the renders' scale,
+    /// so that one tone mapping (the renders' sRGB preview, exposure 0) serves them all:
+    /// irradiance E is shown as E/π, the radiance a white Lambertian surface under E reflects
+    /// (the paper's "dimmed for display"; π dims less than the paper's unstated factor but
+    /// keeps the images comparable with the final render and with each other).
+    /// - `IRRADIANCE_PNG` (Fig. 1b): the global map's N-nearest irradiance estimate at the first
+    ///   non-delta hit of each pixel centre's camera ray (through mirrors and glass, weighted by
+    ///   their reflectance), on the side the ray sees.
+    /// - `PRECOMPUTED_PNG` (Fig. 1c at `every = 1`, 1d at `every = 4`): only with precomputed
+    ///   irradiance: each photon holding an irradiance drawn where the camera sees it (as the
+    ///   photon image draws photons), the pixel showing the mean E/π of its visible photons,
+    ///   black where none is visible.
+    /// - `GATHER_SEES_PNG` (Fig. 1e, the scene "as the final gathering sees it", §3.2): at the
+    ///   same first hits, what a final-gather ray landing there reads ([`Renderer::lookup`]):
+    ///   ρ/π · E of the nearest precomputed photon, or the global map's radiance estimate.
+    ///
+    /// The delta chains draw from `[FIGURE_STREAM, pixel, 0]`, so the images depend on the seed
+    /// only, never on the thread count.
+    fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {
+        let Some(maps) = &self.maps else {
+            return Vec::new();
+        };
+        let r = Renderer {
+            scene,
+            params: &self.params,
+            maps,
+        };
+        let cam = &scene.camera;
+        let (width, height) = (cam.width, cam.height);
+        let hits: Vec<Option<(SurfaceHit, Vec3, Vec3)>> = (0..cam.pixel_count())
+            .into_par_iter()
+            .map(|pixel| {
+                let mut rng = Rng::for_task(seed, [FIGURE_STREAM, pixel as u64, 0]);
+                let (x, y) = (pixel % width as usize, pixel / width as usize);
+                let ray = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                r.first_diffuse_hit(ray, &mut rng)
+            })
+            .collect();
+        let at_hits = |f: &(dyn Fn(&SurfaceHit, &Bsdf, Vec3) -> Vec3 + Sync)| Image {
+            width,
+            height,
+            pixels: hits
+                .par_iter()
+                .map(|h| {
+                    h.as_ref()
+                        .map_or(Vec3::ZERO, |(hit, beta, wo)| *beta * f(hit, scene.bsdf(hit), *wo))
+                })
+                .collect(),
+        };
+        let mut figures = vec![Figure {
+            suffix: IRRADIANCE_PNG,
+            image: at_hits(&|hit, _, wo| {
+                maps.global
+                    .irradiance(hit.p, side_normal(hit, wo), &maps.estimate)
+                    .value
+                    * FRAC_1_PI
+            }),
+        }];
+        if let Some(irr) = &maps.irradiance {
+            let photons: Vec<(Vec3, Vec3)> = irr.photons().iter().map(|p| (p.position(), p.normal())).collect();
+            let mut sum = vec![Vec3::ZERO; cam.pixel_count()];
+            let mut count = vec![0u32; cam.pixel_count()];
+            for (photon, pixel) in irr.photons().iter().zip(visible_pixels(scene, &photons)) {
+                if let (Some(i), Some(e)) = (pixel, photon.irradiance()) {
+                    sum[i] += e * FRAC_1_PI;
+                    count[i] += 1;
+                }
+            }
+            let pixels = sum
+                .iter()
+                .zip(&count)
+                .map(|(&s, &n)| if n > 0 { s / n as f32 } else { Vec3::ZERO })
+                .collect();
+            figures.push(Figure {
+                suffix: PRECOMPUTED_PNG,
+                image: Image { width, height, pixels },
+            });
+        }
+        figures.push(Figure {
+            suffix: GATHER_SEES_PNG,
+            image: at_hits(&|hit, bsdf, wo| r.lookup(hit, bsdf, wo, &mut PhotonMapCounters::default())),
+        });
+        figures
     }
 
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
@@ -747,15 +848,7 @@ impl Renderer<'_> {
                     c.secondary_gathers += 1;
                     return beta * self.shade(&hit, bsdf, wo_world, false, rng, c);
                 }
-                if let (Some(irr), Some(pre), Bsdf::Lambertian(lam)) =
-                    (&maps.irradiance, &self.params.precomputed_irradiance, bsdf)
-                {
-                    c.irradiance_lookups += 1;
-                    let n = side_normal(&hit, wo_world);
-                    return beta * irr.radiance_at(hit.p, n, lam.reflectance, pre.normal_dot);
-                }
-                c.map_estimates += 1;
-                return beta * self.map_radiance(&maps.global, &maps.estimate, &hit, bsdf, wo_world);
+                return beta * self.lookup(&hit, bsdf, wo_world, c);
             }
             if depth >= self.params.max_depth {
                 return Vec3::ZERO;
@@ -771,6 +864,40 @@ impl Renderer<'_> {
             ray = next;
             depth += 1;
         }
+    }
+
+    /// The outgoing radiance a gather ray reads at the non-delta hit `hit` towards `wo_world`
+    /// (no secondary gather): with precomputed irradiance and a Lambertian surface, ρ/π times
+    /// the irradiance of the nearest photon with a similar normal [Christensen 1999, §3.1];
+    /// otherwise the global map's radiance estimate with the BSDF.
+    fn lookup(&self, hit: &SurfaceHit, bsdf: &Bsdf, wo_world: Vec3, c: &mut PhotonMapCounters) -> Vec3 {
+        let maps = self.maps;
+        if let (Some(irr), Some(pre), Bsdf::Lambertian(lam)) =
+            (&maps.irradiance, &self.params.precomputed_irradiance, bsdf)
+        {
+            c.irradiance_lookups += 1;
+            let n = side_normal(hit, wo_world);
+            return irr.radiance_at(hit.p, n, lam.reflectance, pre.normal_dot);
+        }
+        c.map_estimates += 1;
+        self.map_radiance(&maps.global, &maps.estimate, hit, bsdf, wo_world)
+    }
+
+    /// The first non-delta hit of a camera ray, the throughput of the delta chain before it
+    /// and the direction back along the ray; `None` when the ray escapes or the chain ends.
+    fn first_diffuse_hit(&self, mut ray: Ray, rng: &mut Rng) -> Option<(SurfaceHit, Vec3, Vec3)> {
+        let mut beta = Vec3::ONE;
+        for _ in 0..=self.params.max_depth {
+            let hit = self.scene.intersect(&ray)?;
+            let bsdf = self.scene.bsdf(&hit);
+            if !bsdf.is_delta() {
+                return Some((hit, beta, -ray.d));
+            }
+            let (next, weight) = delta_bounce(&hit, bsdf, hit.frame.to_local(-ray.d), rng)?;
+            beta *= weight;
+            ray = next;
+        }
+        None
     }
 
     /// The irradiance cache's deterministic overture (see the module doc): rounds over pixel
@@ -805,7 +932,7 @@ impl Renderer<'_> {
                     let mut rng = Rng::for_task(seed, [CACHE_STREAM, pixel, 0]);
                     let mut c = PhotonMapCounters::default();
                     let ray = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-                    let record = self.cache_record(ray, &cache, caching.gather_rays, r_clamp, &mut rng, &mut c);
+                    let record = self.cache_record(ray, &cache, caching, r_clamp, &mut rng, &mut c);
                     counters.add(&c);
                     record
                 })
@@ -821,7 +948,7 @@ impl Renderer<'_> {
         &self,
         mut ray: Ray,
         cache: &IrradianceCache,
-        gather_rays: u32,
+        caching: &IrradianceCaching,
         (r_min, r_max): (f32, f32),
         rng: &mut Rng,
         c: &mut PhotonMapCounters,
@@ -841,10 +968,13 @@ impl Renderer<'_> {
             }
             // The final gather of `shade` with the cache's G, cosine-distributed about n:
             // E = π/G Σ L_j, and Ward's R = G / Σ 1/d_j (escaping rays count 1/d = 0).
-            let g = gather_rays as usize;
+            let g = caching.gather_rays as usize;
             let sign = if n.dot(hit.frame.n) >= 0.0 { 1.0 } else { -1.0 };
             let (mut sum, mut inverse_d) = (Vec3::ZERO, 0.0f32);
             c.final_gathers += 1;
+            if caching.gradients {
+                return Some(self.gradient_record(&hit, n, sign, g, (r_min, r_max), rng, c));
+            }
             for u in latin_hypercube(g, rng) {
                 c.gather_rays += 1;
                 let w = sample_cosine_hemisphere(u);
@@ -862,9 +992,60 @@ impl Renderer<'_> {
                 n,
                 e: sum * (PI / g as f32),
                 r: r.clamp(r_min, r_max),
+                gradients: None,
             });
         }
         None
+    }
+
+    /// A cache record at `hit` (normal `n` = `sign` × the shading normal) from a gather
+    /// stratified in [`PolarStrata`] for about `g` rays, with Ward & Heckbert's gradients
+    /// ([`crate::photon::irradiance_cache::gradients`]); E and R as in `cache_record`.
+    #[allow(clippy::too_many_arguments)]
+    fn gradient_record(
+        &self,
+        hit: &SurfaceHit,
+        n: Vec3,
+        sign: f32,
+        g: usize,
+        (r_min, r_max): (f32, f32),
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+    ) -> CacheRecord {
+        let strata = PolarStrata::for_rays(g);
+        let (mut l, mut d, mut w) = (Vec::new(), Vec::new(), Vec::new());
+        for j in 0..strata.m {
+            for k in 0..strata.n {
+                let local = strata.direction(j, k, rng.uniform2());
+                let wi = hit.frame.to_world(Vec3::new(local.x, local.y, sign * local.z));
+                let (lj, dj) = if wi.dot(hit.ng) * sign <= 0.0 {
+                    (Vec3::ZERO, f32::INFINITY)
+                } else {
+                    c.gather_rays += 1;
+                    self.gather(spawn_ray(hit.p, hit.ng, wi), true, rng, c)
+                };
+                l.push(lj);
+                d.push(dj);
+                w.push(local);
+            }
+        }
+        let count = strata.len() as f32;
+        let inverse_d: f32 = d.iter().map(|d| 1.0 / d).sum();
+        let r = if inverse_d > 0.0 { count / inverse_d } else { r_max };
+        let (rotational, translational) = gradients(strata, &l, &d, &w);
+        // Tangent vectors map to the world through the shading frame on either side; the
+        // rotational gradient ∫ L (n × ω) dω changes sign with n (x, y, −n is left-handed).
+        let tangent = |v: Vec3| hit.frame.to_world(v);
+        CacheRecord {
+            p: hit.p,
+            n,
+            e: l.iter().copied().sum::<Vec3>() * (PI / count),
+            r: r.clamp(r_min, r_max),
+            gradients: Some(Gradients {
+                rotational: rotational.map(|v| tangent(v) * sign),
+                translational: translational.map(tangent),
+            }),
+        }
     }
 
     /// Radiance estimate of `map` at `hit` towards `wo_world` with the BSDF: on the side seen

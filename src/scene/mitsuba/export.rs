@@ -31,6 +31,14 @@ use std::path::{Path, PathBuf};
 
 /// Writes `scene` (a TOML or Mitsuba scene file) as Mitsuba 3 XML to `out`; returns the
 /// warnings (approximations and what was left out), one line each.
+/// Mitsuba's rectangle and cube are two and twelve triangles: a subdivided quad or box (the
+/// same surface, more triangles: what scale measurements need) cannot be written as one.
+fn subdivided(subdivide: Option<i64>) -> bool {
+    subdivide.is_some_and(|n| n > 1)
+}
+
+const SUBDIVIDE_REFUSED: &str = "subdivide has no Mitsuba 3 equivalent (its rectangle and cube are not subdivided)";
+
 pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
     // The scene must load as it is: export never writes what `bench run` would refuse.
     let (_, stats) = load_scene_with_stats(scene)?;
@@ -144,6 +152,9 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         let mut props = String::new();
         let kind = match shape {
             ShapeDesc::Quad(q) => {
+                if subdivided(q.subdivide) {
+                    return Err(err(&field, SUBDIVIDE_REFUSED));
+                }
                 let (corner, u, v) = quad_corner_edges(&file, &field, q)?;
                 // [−1, 1]² onto corner + s·u + t·v; the third column only has to keep the map
                 // invertible and orientation-preserving (u × v is the front side in both).
@@ -153,6 +164,9 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
                 "rectangle"
             }
             ShapeDesc::Box(b) => {
+                if subdivided(b.subdivide) {
+                    return Err(err(&field, SUBDIVIDE_REFUSED));
+                }
                 let (lo, hi) = match (b.min, b.max, b.center, b.size) {
                     (Some(lo), Some(hi), _, _) => (dvec(lo), dvec(hi)),
                     (_, _, Some(c), Some(s)) => (dvec(c) - 0.5 * dvec(s), dvec(c) + 0.5 * dvec(s)),
