@@ -274,7 +274,7 @@ fn run_command(command: Command) -> Result<Status> {
             }
             let scene = load_scene(&scene)?;
             if photon_scale {
-                let sizes = [25_000, 50_000, 100_000, 200_000, 400_000, 800_000, 1_600_000];
+                let sizes = [25_000, 50_000, 100_000, 200_000, 400_000, 500_000, 800_000, 1_600_000];
                 let points = photon_bench::perf::measure_photon_scale(&scene, &sizes, 100_000);
                 let Some(first) = points.first() else {
                     return Err(Error::new(format!("{}: no photon stored", scene.source.display())));
