@@ -302,7 +302,7 @@ fn run_command(command: Command) -> Result<Status> {
                     );
                 }
                 if let Some(path) = csv {
-                    photon_bench::perf::append_scale_csv(&points, &path)?;
+                    photon_bench::perf::append_csv(&points, &path)?;
                 }
                 return Ok(Status::Success);
             }
@@ -356,7 +356,7 @@ fn run_command(command: Command) -> Result<Status> {
                 r.mps_photons_per_s
             );
             if let Some(path) = csv {
-                photon_bench::perf::append_csv(&r, &path)?;
+                photon_bench::perf::append_csv(std::slice::from_ref(&r), &path)?;
             }
             Ok(Status::Success)
         }

@@ -306,8 +306,9 @@ fn measure_mps_photons(scene: &Scene, seed: u64) -> f64 {
     stored / seconds
 }
 
-/// Appends `report` to a CSV file (header written when the file is new).
-pub fn append_csv(report: &PerfReport, path: &std::path::Path) -> crate::Result<()> {
+/// Appends `rows` to a CSV file (header written when the file is new): `bench perf --csv`
+/// collects measurements of many runs and machines in one file.
+pub fn append_csv<T: serde::Serialize>(rows: &[T], path: &std::path::Path) -> crate::Result<()> {
     use crate::error::Context;
     let exists = path.exists();
     let file = std::fs::OpenOptions::new()
@@ -316,7 +317,9 @@ pub fn append_csv(report: &PerfReport, path: &std::path::Path) -> crate::Result<
         .open(path)
         .context(path.display())?;
     let mut w = csv::WriterBuilder::new().has_headers(!exists).from_writer(file);
-    w.serialize(report).context(path.display())?;
+    for row in rows {
+        w.serialize(row).context(path.display())?;
+    }
     w.flush().context(path.display())
 }
 
@@ -431,20 +434,4 @@ pub fn measure_photon_scale(scene: &Scene, sizes: &[usize], queries: usize) -> V
             }
         })
         .collect()
-}
-
-/// Appends scale points to a CSV file (header written when the file is new).
-pub fn append_scale_csv(points: &[ScalePoint], path: &std::path::Path) -> crate::Result<()> {
-    use crate::error::Context;
-    let exists = path.exists();
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .context(path.display())?;
-    let mut w = csv::WriterBuilder::new().has_headers(!exists).from_writer(file);
-    for p in points {
-        w.serialize(p).context(path.display())?;
-    }
-    w.flush().context(path.display())
 }
