@@ -50,11 +50,17 @@ pub struct PhotonGrid {
 /// Cell of a local direction `w` (z > 0) in an m × n grid: the inverse warp T⁻¹.
 #[inline]
 fn cell_of(w: Vec3, m: usize, n: usize) -> usize {
-    let u = (1.0 - w.z * w.z).clamp(0.0, 1.0);
     let mut v = w.y.atan2(w.x) / TAU;
     if v < 0.0 {
         v += 1.0;
     }
+    cell_at(w, v, m, n)
+}
+
+/// Row-major cell of the local direction `w` whose v = φ / 2π is given.
+#[inline]
+fn cell_at(w: Vec3, v: f32, m: usize, n: usize) -> usize {
+    let u = (1.0 - w.z * w.z).clamp(0.0, 1.0);
     let i = ((u * m as f32) as usize).min(m - 1);
     let j = ((v * n as f32) as usize).min(n - 1);
     i * n + j
@@ -90,11 +96,7 @@ fn fast_phi(y: f32, x: f32) -> f32 {
 /// The cell a photon's local direction is binned into (see [`fast_phi`]).
 #[inline]
 fn photon_cell(w: Vec3, m: usize, n: usize) -> usize {
-    let u = (1.0 - w.z * w.z).clamp(0.0, 1.0);
-    let v = fast_phi(w.y, w.x) / TAU;
-    let i = ((u * m as f32) as usize).min(m - 1);
-    let j = ((v * n as f32) as usize).min(n - 1);
-    i * n + j
+    cell_at(w, fast_phi(w.y, w.x) / TAU, m, n)
 }
 
 impl PhotonGrid {

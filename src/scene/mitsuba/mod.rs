@@ -234,6 +234,15 @@ impl<'a, 'i> Reader<'a, 'i> {
     }
 
     /// A coordinate from `key` (default `default`) for the `x`/`y`/`z` attribute forms.
+    /// The `x`, `y`, `z` attributes of a transform operation, each `default` when absent.
+    fn coords(&self, n: Node, default: f64) -> Result<DVec3> {
+        Ok(DVec3::new(
+            self.coord(n, "x", default)?,
+            self.coord(n, "y", default)?,
+            self.coord(n, "z", default)?,
+        ))
+    }
+
     fn coord(&self, n: Node, key: &str, default: f64) -> Result<f64> {
         match n.attribute(key) {
             None => Ok(default),
@@ -376,11 +385,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     let v = if op.attribute("value").is_some() {
                         self.triple_attr(op, "value")?
                     } else {
-                        DVec3::new(
-                            self.coord(op, "x", 0.0)?,
-                            self.coord(op, "y", 0.0)?,
-                            self.coord(op, "z", 0.0)?,
-                        )
+                        self.coords(op, 0.0)?
                     };
                     DMat4::from_translation(v)
                 }
@@ -394,11 +399,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                             }
                         }
                     } else {
-                        DVec3::new(
-                            self.coord(op, "x", 1.0)?,
-                            self.coord(op, "y", 1.0)?,
-                            self.coord(op, "z", 1.0)?,
-                        )
+                        self.coords(op, 1.0)?
                     };
                     DMat4::from_scale(v)
                 }
@@ -406,11 +407,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     let axis = if op.attribute("value").is_some() {
                         self.triple_attr(op, "value")?
                     } else {
-                        DVec3::new(
-                            self.coord(op, "x", 0.0)?,
-                            self.coord(op, "y", 0.0)?,
-                            self.coord(op, "z", 0.0)?,
-                        )
+                        self.coords(op, 0.0)?
                     };
                     let angle = self.number(op, "angle")?;
                     let Some(axis) = axis.try_normalize() else {
