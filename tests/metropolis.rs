@@ -9,11 +9,12 @@
 //! path-traced blocks' error comes from 8 independent renders, and B_eye's relative standard
 //! error applies to every block alike. |z| < 4.5 for each of the 16 blocks.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use photon_bench::camera::Camera;
 use photon_bench::film::Film;
 use photon_bench::metropolis::proposals::Context;
 use photon_bench::metropolis::{Chain, MetropolisParams, ProposalMix, State, Tally, estimate_b, prepare_user_paths};
+use photon_bench::path_space::Vertex;
 use photon_bench::sampling::Rng;
 use photon_bench::sampling::chi2::chi2_upper_tail;
 use photon_bench::scene::{Scene, UserPath, load_scene, luminance};
@@ -466,6 +467,7 @@ fn pm_transition_density_matches_its_own_candidates() {
     let x1 = trace_from(&scene, &x0, (Vec3::new(0.5, 0.0, 0.6) - x0.p).normalize()).unwrap();
     let x2 = trace_from(&scene, &x1, (Vec3::new(0.5, 0.3, 1.0) - x1.p).normalize()).unwrap();
     let x = vec![x0, x1, x2, Vertex::eye(&scene)];
+    assert!(State::new(&scene, x.clone()).is_some());
     let cos_gamma = params.pm_gamma_deg.to_radians().cos();
     let cone_pdf = 1.0 / (std::f64::consts::TAU * (1.0 - cos_gamma as f64));
     let axis = (x1.p - x2.p).normalize();
@@ -487,4 +489,279 @@ fn pm_transition_density_matches_its_own_candidates() {
         .count() as f64
         / 400_000.0;
     integrate_over_floor(&samples, inside, "PM");
+}
+
+/// The open box with a mirror floor and a diffuse wall on the left (x = 0, facing +x): the eye
+/// sees the lit back wall (z = 1) directly and in the floor, and the light reaches it through
+/// the floor. Paths through one plane mirror have a closed-form measure ([`mirror_jacobian`]),
+/// which the tests of LP and CP below use. Every segment they involve stays inside the box
+/// or crosses its open front, so nothing occludes it.
+fn mirror_box() -> Scene {
+    let floor = "material = \"white\"\ncenter = [0.5, 0.0, 0.5]";
+    assert!(OPEN_BOX.contains(floor));
+    let text = OPEN_BOX.replace(floor, "material = \"mirror\"\ncenter = [0.5, 0.0, 0.5]")
+        + r#"
+[materials.mirror]
+type = "mirror"
+reflectance = [1, 1, 1]
+
+[[shapes]]
+type = "quad"
+material = "white"
+center = [0.0, 0.5, 0.5]
+size = [1.0, 1.0]
+facing = "+x"
+"#;
+    let file = std::path::Path::new("mirror-box.toml");
+    photon_bench::scene::load::load_scene_bytes(file, text.as_bytes())
+        .unwrap()
+        .0
+}
+
+/// The light's centre, x₀ of every path below, and its image in the mirror floor y = 0.
+const LIGHT: DVec3 = DVec3::new(0.2, 0.999, 0.5);
+const LIGHT_IMAGE: DVec3 = DVec3::new(0.2, -0.999, 0.5);
+
+fn light_vertex(scene: &Scene) -> Vertex {
+    Vertex::light(scene, 0, LIGHT.as_vec3(), -Vec3::Y)
+}
+
+/// Where the straight segment from `a` (below the floor) to `b` (above it) crosses the floor
+/// y = 0, if it does so on the mirror (0 ≤ x, z ≤ 1).
+fn floor_crossing(a: DVec3, b: DVec3) -> Option<DVec3> {
+    let m = a + (b - a) * (-a.y / (b.y - a.y));
+    ((0.0..=1.0).contains(&m.x) && (0.0..=1.0).contains(&m.z)).then_some(m)
+}
+
+/// J for a path o → s → v with s on a plane mirror: J = |cos θ_s| (|o−s| + |s−v|)² / (|o−s|² |s−v|²).
+///
+/// Why: a proposal that chooses s with solid-angle density p_ω at o and follows the mirror to v
+/// reports T = p_ω |cos θ_s| / |o−s|² · |cos θ_v| / |s−v|² (the delta of the bounce dropped and
+/// |cos| / r² kept, as `path_space` measures specular vertices [Veach 1997, §8.3.2, §10.3.5]).
+/// The law of v itself is that of the image of v in the mirror seen from o along the unfolded
+/// ray: area density p_ω |cos θ_v| / (|o−s| + |s−v|)² (the image-source construction). So
+/// E[g(Y) / T(Y|X)] = ∫ g / J dA(v), and with g = J · 1{v ∈ A} it is the area of the part of A
+/// the proposal reaches. A T without the |cos θ_v| / |s−v|² of the bounce, or with the wrong
+/// cosine, is off by a factor that varies over A.
+fn mirror_jacobian(o: DVec3, s: &Vertex, v: DVec3) -> f64 {
+    let (sp, n) = (s.p.as_dvec3(), s.ng.as_dvec3());
+    let (a, b) = ((o - sp).length(), (v - sp).length());
+    let cos_s = n.dot((o - sp) / a).abs();
+    cos_s * (a + b).powi(2) / (a * a * b * b)
+}
+
+/// The back wall z = 1 in 10 × 10 cells of 0.1 m: a histogram of where candidates land.
+const WALL_CELLS: usize = 10;
+
+fn on_back_wall(v: &Vertex) -> bool {
+    (v.p.z - 1.0).abs() < 1e-4 && (0.0..1.0).contains(&v.p.x) && (0.0..1.0).contains(&v.p.y)
+}
+
+fn wall_cell(p: Vec3) -> usize {
+    let c = |t: f32| ((t * WALL_CELLS as f32) as usize).min(WALL_CELLS - 1);
+    c(p.y) * WALL_CELLS + c(p.x)
+}
+
+/// Area of the part of each wall cell where `reach` holds, by the midpoint rule on a 2000 ×
+/// 2000 grid (0.5 mm: the region boundaries cut few of its squares, an error far below the
+/// statistical one of the proposals' estimates).
+fn wall_areas(reach: impl Fn(DVec3) -> bool) -> Vec<f64> {
+    const N: usize = 2000;
+    let h = 1.0 / N as f64;
+    let mut areas = vec![0.0; WALL_CELLS * WALL_CELLS];
+    for j in 0..N {
+        for i in 0..N {
+            let p = DVec3::new((i as f64 + 0.5) * h, (j as f64 + 0.5) * h, 1.0);
+            if reach(p) {
+                areas[wall_cell(p.as_vec3())] += h * h;
+            }
+        }
+    }
+    areas
+}
+
+/// Checks E[g/T] cell by cell: `samples` holds (cell, g(Y) / T(Y|X)) of the candidates with
+/// g ≠ 0 among `n` proposals, `areas` the reachable area of each cell. Cells with less than 1 %
+/// of the total area are pooled into one, so that every cell's mean is near normal. Passes
+/// when the total is within |z| < 4.5 and Σ z² over the cells is below the 10⁻⁴ upper
+/// quantile of χ² (one degree of freedom per cell; the cells' estimates share samples but are
+/// nearly uncorrelated, each sample landing in one cell): a T that is wrong by a factor
+/// varying over the wall fails the second even where the total happens to agree.
+fn compare_with_wall_areas(what: &str, n: usize, samples: &[(usize, f64)], areas: &[f64]) {
+    let total: f64 = areas.iter().sum();
+    let pooled = areas.len();
+    let bin = |c: usize| if areas[c] >= 0.01 * total { c } else { pooled };
+    let (mut sum, mut sum_sq) = (vec![0.0; pooled + 1], vec![0.0; pooled + 1]);
+    for &(c, w) in samples {
+        assert!(
+            w.is_finite(),
+            "{what}: a candidate in cell {c} to which the proposal's own T gives density 0"
+        );
+        sum[bin(c)] += w;
+        sum_sq[bin(c)] += w * w;
+    }
+    let mut expected = areas.to_vec();
+    expected.push(0.0);
+    for c in 0..pooled {
+        if bin(c) == pooled {
+            expected[pooled] += areas[c];
+            expected[c] = 0.0;
+        }
+    }
+    let n = n as f64;
+    let mean_se = |s: f64, q: f64| (s / n, ((q / n - (s / n).powi(2)) / (n - 1.0)).sqrt());
+    let z = |(m, se): (f64, f64), e: f64| {
+        assert!(se > 0.0 || m == e, "{what}: no candidate where {e:.4} m² is reachable");
+        if se > 0.0 { (m - e) / se } else { 0.0 }
+    };
+    let (mut chi2, mut dof) = (0.0, 0);
+    for b in 0..=pooled {
+        if expected[b] > 0.0 || sum[b] > 0.0 {
+            let (m, se) = mean_se(sum[b], sum_sq[b]);
+            if std::env::var("MLT_TEST_VERBOSE").is_ok() {
+                eprintln!("{what} cell {b}: {m:.5} ± {se:.5} vs {:.5}", expected[b]);
+            }
+            chi2 += z((m, se), expected[b]).powi(2);
+            dof += 1;
+        }
+    }
+    let (m, se) = mean_se(sum.iter().sum(), sum_sq.iter().sum());
+    let z_total = z((m, se), total);
+    let p = chi2_upper_tail(chi2, dof);
+    eprintln!(
+        "{what}: E[g/T] = {m:.5} ± {se:.5} m², reachable {total:.5} m² (z = {z_total:.2}); \
+         Σz² = {chi2:.1} over {dof} cells (p = {p:.2e})"
+    );
+    assert!(
+        z_total.abs() < 4.5 && p > 1e-4,
+        "{what}: E[g/T] = {m:.5} ± {se:.5}, reachable {total:.5} (z = {z_total:.2}); Σz² = {chi2:.1} over {dof} \
+         cells, p = {p:.2e}"
+    );
+}
+
+/// LP against its own candidates. X = L D S E: the eye sees, in the mirror floor, the point
+/// (0.5, 0.2, 1) of the back wall, lit by the light. LP moves the image point by an offset of
+/// radius r ∈ [r1, r2] with density ∝ 1/r and a uniform angle [Veach 1997, §11.4.3], i.e.
+/// p(u′|u) = 1 / (2π r² ln(r2/r1)) per unit raster area, re-traces the mirror bounce and
+/// reconnects the new wall point to x₀. The chain sees T only through the candidate's
+/// t_ratio = T(X|Y) / T(Y|X) (the offset density, symmetric, cancels): T(Y|X) is taken as
+/// p(u′|u) · lp_density(X) / t_ratio, so a wrong factor anywhere in what the acceptance uses
+/// shows. E[J · 1{wall} / T] must be the area of the back wall whose mirror image lies at an
+/// offset in [r1, r2] from u in the image, seen through the mirror ([`mirror_jacobian`] with
+/// o the eye); compared cell by cell.
+///
+/// Correct code: E = 0.2613 ± 0.0008 m² against 0.2608 m² (z = 0.63), Σz² = 19.3 over 29 cells
+/// (p = 0.91). Seeded bugs, since reverted: lp_density without the bounce's |cos θ_v| / r²:
+/// Σz² = 38 552 (p ≈ 0) though the total alone passes (z = 1.55: its weights turn heavy-tailed);
+/// the cosine at the mirror instead of the wall, |cos θ_s| / r²: z = 230, Σz² = 87 408; offsets
+/// with r uniform on [r1, r2] instead of ∝ 1/r (the sampler no longer what T assumes): z = 317,
+/// Σz² = 66 407.
+#[test]
+fn lp_transition_density_matches_its_own_candidates() {
+    use photon_bench::geometry::Ray;
+    use photon_bench::metropolis::proposals::{lens_perturbation, lp_density};
+    use photon_bench::path_space::walk::{trace, trace_from};
+    let scene = mirror_box();
+    let params = MetropolisParams::default();
+    let ctx = Context::new(&scene, &params, &[]);
+    let cam = &scene.camera;
+    let eye = cam.eye.as_dvec3();
+    let wall_point = DVec3::new(0.5, 0.2, 1.0);
+    let image = |p: DVec3| DVec3::new(p.x, -p.y, p.z);
+    let s = trace(
+        &scene,
+        &Ray::new(cam.eye, (image(wall_point) - eye).normalize().as_vec3()),
+    )
+    .unwrap();
+    let x1 = trace_from(&scene, &s, (wall_point - s.p.as_dvec3()).normalize().as_vec3()).unwrap();
+    assert!(s.delta && (x1.p.as_dvec3() - wall_point).length() < 1e-4);
+    let x = vec![light_vertex(&scene), x1, s, Vertex::eye(&scene)];
+    assert!(State::new(&scene, x.clone()).is_some());
+    let raster = |p: DVec3| cam.raster_position((p - eye).normalize().as_vec3());
+    let u = raster(image(wall_point)).unwrap();
+    let r2 = (params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
+    let r1 = params.lens_r1_px.min(r2);
+    let offset_pdf = |r: f32| 1.0 / (std::f64::consts::TAU * (r as f64).powi(2) * (r2 as f64 / r1 as f64).ln());
+    let t_rev = lp_density(&scene, &x, 1);
+
+    let n = 400_000;
+    let mut rng = Rng::for_task(5, [0, 0, 0]);
+    let samples: Vec<(usize, f64)> = (0..n)
+        .filter_map(|_| {
+            let c = lens_perturbation(&ctx, &x, &mut rng)?;
+            let y = &c.path;
+            if y.len() != 4 || !on_back_wall(&y[1]) {
+                return None;
+            }
+            let r = (raster(y[2].p.as_dvec3())? - u).length();
+            let t = offset_pdf(r) * t_rev / c.t_ratio;
+            Some((wall_cell(y[1].p), mirror_jacobian(eye, &y[2], y[1].p.as_dvec3()) / t))
+        })
+        .collect();
+    let areas = wall_areas(|p| {
+        let q = image(p);
+        floor_crossing(q, eye).is_some() && raster(q).is_some_and(|v| (r1..=r2).contains(&(v - u).length()))
+    });
+    compare_with_wall_areas("LP", n, &samples, &areas);
+}
+
+/// The angle between two directions, accurate for small angles.
+fn angle(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
+}
+
+/// CP against its own candidates. X = L S D E: light reflected by the mirror floor onto the back
+/// wall at (0.5, 0.5, 1), seen by the eye. CP turns the direction leaving x₀ by an angle θ ∈
+/// [θ1, θ2] with density ∝ 1/θ and a uniform azimuth [Veach 1997, §11.4.3]: per unit solid
+/// angle p(ω′|ω) = 1 / (2π sin θ · θ ln(θ2/θ1)), symmetric; then follows the mirror to the
+/// wall. As for LP, T(Y|X) = p(ω′|ω) · cp_density(X) / t_ratio, and E[J · 1{wall} / T] must
+/// be the area of the wall whose ray from x₀'s mirror image crosses the mirror at an angle θ ∈
+/// [θ1, θ2] from x₀ → x₁ (reflection keeps angles) and that the eye sees ([`mirror_jacobian`]
+/// with o = x₀); compared cell by cell.
+///
+/// Correct code: E = 0.2589 ± 0.0011 m² against 0.2590 m² (z = −0.10), Σz² = 27.8 over 31 cells
+/// (p = 0.63). Seeded bugs, since reverted: cp_density without the |cos θ_v| / r² of the wall
+/// vertex: z = 60, Σz² = 73 001; each |cos| taken at the wrong end of its edge: z = −523,
+/// Σz² = 375 470; θ uniform on [θ1, θ2] instead of ∝ 1/θ: z = 431, Σz² = 146 697.
+#[test]
+fn cp_transition_density_matches_its_own_candidates() {
+    use photon_bench::metropolis::proposals::{caustic_perturbation, cp_density};
+    use photon_bench::path_space::walk::trace_from;
+    let scene = mirror_box();
+    let params = MetropolisParams::default();
+    let ctx = Context::new(&scene, &params, &[]);
+    let cam = &scene.camera;
+    let wall_point = DVec3::new(0.5, 0.5, 1.0);
+    let x0 = light_vertex(&scene);
+    let m = floor_crossing(LIGHT_IMAGE, wall_point).unwrap();
+    let x1 = trace_from(&scene, &x0, (m - LIGHT).normalize().as_vec3()).unwrap();
+    let x2 = trace_from(&scene, &x1, (wall_point - m).normalize().as_vec3()).unwrap();
+    assert!(x1.delta && (x2.p.as_dvec3() - wall_point).length() < 1e-4);
+    let x = vec![x0, x1, x2, Vertex::eye(&scene)];
+    assert!(State::new(&scene, x.clone()).is_some());
+    let axis = x1.p.as_dvec3() - LIGHT;
+    let (theta1, theta2) = (params.caustic_theta1 as f64, params.caustic_theta2 as f64);
+    let angle_pdf = |theta: f64| 1.0 / (std::f64::consts::TAU * theta.sin() * theta * (theta2 / theta1).ln());
+    let t_rev = cp_density(&x, 0);
+
+    let n = 400_000;
+    let mut rng = Rng::for_task(6, [0, 0, 0]);
+    let samples: Vec<(usize, f64)> = (0..n)
+        .filter_map(|_| {
+            let c = caustic_perturbation(&ctx, &x, &mut rng)?;
+            let y = &c.path;
+            if y.len() != 4 || !on_back_wall(&y[2]) {
+                return None;
+            }
+            let theta = angle(y[1].p.as_dvec3() - LIGHT, axis);
+            let t = angle_pdf(theta) * t_rev / c.t_ratio;
+            Some((wall_cell(y[2].p), mirror_jacobian(LIGHT, &y[1], y[2].p.as_dvec3()) / t))
+        })
+        .collect();
+    let eye = cam.eye.as_dvec3();
+    let areas = wall_areas(|p| {
+        floor_crossing(LIGHT_IMAGE, p).is_some_and(|m| (theta1..=theta2).contains(&angle(m - LIGHT, axis)))
+            && cam.raster_position((p - eye).normalize().as_vec3()).is_some()
+    });
+    compare_with_wall_areas("CP", n, &samples, &areas);
 }

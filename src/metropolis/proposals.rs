@@ -368,8 +368,9 @@ fn ratio(path: Vec<Vertex>, t_rev: f64, t_fwd: f64) -> Option<Candidate> {
 // Lens perturbation (LP) [Veach 1997, §11.4.3].
 
 /// Density of the perturbed eye sub-path per unit raster area: C(x_{k−1}) times |cos| / r² for
-/// each vertex reached through a specular bounce (the lobe is kept, probability 1).
-fn lp_density(scene: &Scene, path: &[Vertex], d: usize) -> f64 {
+/// each vertex reached through a specular bounce (the lobe is kept, probability 1). Public for
+/// the tests that check it against LP's own candidates.
+pub fn lp_density(scene: &Scene, path: &[Vertex], d: usize) -> f64 {
     let k = path.len() - 1;
     let c = camera_factor(scene, &path[k - 1]).map_or(0.0, |(_, c)| c as f64);
     (d..k - 1).fold(c, |acc, i| acc * solid_angle_to_area(&path[i + 1], &path[i]) as f64)
@@ -421,8 +422,9 @@ pub fn lens_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<C
 // ---------------------------------------------------------------------------------------------
 // Caustic perturbation (CP) [Veach 1997, §11.4.3].
 
-/// Density of the vertices x_{j+1} … x_{k−1} per unit solid angle at x_j.
-fn cp_density(path: &[Vertex], j: usize) -> f64 {
+/// Density of the vertices x_{j+1} … x_{k−1} per unit solid angle at x_j. Public for the tests
+/// that check it against CP's own candidates.
+pub fn cp_density(path: &[Vertex], j: usize) -> f64 {
     let k = path.len() - 1;
     (j + 1..k).fold(1.0, |acc, i| acc * solid_angle_to_area(&path[i - 1], &path[i]) as f64)
 }
