@@ -494,7 +494,7 @@ fn pm_transition_density_matches_its_own_candidates() {
 /// The open box with a mirror floor and a diffuse wall on the left (x = 0, facing +x): the eye
 /// sees the lit back wall (z = 1) directly and in the floor, and the light reaches it through
 /// the floor. Paths through one plane mirror have a closed-form measure ([`mirror_jacobian`]),
-/// which the tests of LP and CP below use. Every segment they involve stays inside the box
+/// which the tests of LP, CP and UP below use. Every segment they involve stays inside the box
 /// or crosses its open front, so nothing occludes it.
 fn mirror_box() -> Scene {
     let floor = "material = \"white\"\ncenter = [0.5, 0.0, 0.5]";
@@ -764,4 +764,76 @@ fn cp_transition_density_matches_its_own_candidates() {
             && cam.raster_position((p - eye).normalize().as_vec3()).is_some()
     });
     compare_with_wall_areas("CP", n, &samples, &areas);
+}
+
+/// UP against its own candidates, with three user paths from the light's centre: two to the
+/// back wall with overlapping cones (β = 8° and 12°), and one through the mirror floor
+/// (β = 6°, a specular user point). X = L D E with x₁ on the left wall; UP keeps x₀ and the eye
+/// sub-path x₁ E and replaces what lies between by a perturbed copy of a user path chosen
+/// uniformly [Fan et al. 2005, §5.1]. Its T is eq. (6), T_UP = (1/N_UP) Σ_j C(u_j) Π p_j |cos| / r²,
+/// with the cone density uniform in solid angle, p_j = 1 / (2π (1 − cos β)) (the decision of
+/// NOTES.md §3), and p_j = 1 after a specular user point: exactly what the chain adds to T_BD
+/// in eq. (7). So E[1{wall} / T] over one-segment candidates is the area of the union of the
+/// two cones' footprints on the wall (where both cones reach, C counts both), and
+/// E[J · 1{wall} / T] over the candidates through the mirror is the wall area whose ray from
+/// x₀'s mirror image crosses the mirror inside the third cone ([`mirror_jacobian`], o = x₀);
+/// both compared cell by cell.
+///
+/// Correct code: E = 0.2055 ± 0.0004 m² against 0.2051 m² (z = 1.06), Σz² = 21.5 over 25 cells
+/// (p = 0.67), and through the mirror 0.2706 ± 0.0007 m² against 0.2708 m² (z = −0.21),
+/// Σz² = 37.9 over 32 cells (p = 0.22). Seeded bugs, since reverted: without the 1/N_UP,
+/// z = −1065; the paper's p_j = 1/(2πβ) for the cone: z = 527; C(u_j) without the cone test
+/// (every user path of the right length counted): z = −997; without the |cos θ_v| / r² after
+/// the specular point: Σz² = 280 015 (p ≈ 0) though the total alone passes (z = 3.79). Before
+/// `in_cone` was shared by sampler and density, the sampler produced candidates with T_UP = 0
+/// (9 in 600 000, just outside a cone's edge), which fails here.
+#[test]
+fn up_transition_density_matches_its_own_candidates() {
+    use photon_bench::metropolis::proposals::{up_density, user_path};
+    use photon_bench::path_space::walk::trace_from;
+    let mut scene = mirror_box();
+    let to_wall = [(DVec3::new(0.5, 0.6, 1.0), 8.0), (DVec3::new(0.6, 0.45, 1.0), 12.0)];
+    let mirror_point = DVec3::new(0.45, 0.0, 0.8);
+    let beyond =
+        LIGHT_IMAGE + (mirror_point - LIGHT_IMAGE) * ((1.0 - LIGHT_IMAGE.z) / (mirror_point.z - LIGHT_IMAGE.z));
+    let beta_mirror = 6.0;
+    for (p, beta) in to_wall {
+        scene.user_paths.push(UserPath {
+            points: vec![LIGHT.as_vec3(), p.as_vec3()],
+            cone_deg: vec![beta as f32],
+        });
+    }
+    scene.user_paths.push(UserPath {
+        points: vec![LIGHT.as_vec3(), mirror_point.as_vec3(), beyond.as_vec3()],
+        cone_deg: vec![beta_mirror as f32; 2],
+    });
+    let user_paths = prepare_user_paths(&scene).unwrap();
+    assert!(user_paths[2].specular[1]);
+    let params = MetropolisParams::default();
+    let ctx = Context::new(&scene, &params, &user_paths);
+    let x0 = light_vertex(&scene);
+    let x1 = trace_from(&scene, &x0, (DVec3::new(0.0, 0.4, 0.6) - LIGHT).normalize().as_vec3()).unwrap();
+    let x = vec![x0, x1, Vertex::eye(&scene)];
+    assert!(State::new(&scene, x.clone()).is_some());
+
+    let n = 600_000;
+    let mut rng = Rng::for_task(7, [0, 0, 0]);
+    let (mut direct, mut mirrored) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        let Some((y, tail)) = user_path(&ctx, &x, &mut rng) else {
+            continue;
+        };
+        let t = up_density(&ctx, &y, y.len() - tail);
+        let v = &y[y.len() - 3];
+        if y.len() == 4 && on_back_wall(v) {
+            direct.push((wall_cell(v.p), 1.0 / t));
+        } else if y.len() == 5 && on_back_wall(v) {
+            mirrored.push((wall_cell(v.p), mirror_jacobian(LIGHT, &y[1], v.p.as_dvec3()) / t));
+        }
+    }
+    let within = |p: DVec3, target: DVec3, beta: f64| angle(p - LIGHT, target - LIGHT) <= beta.to_radians();
+    let areas = wall_areas(|p| to_wall.iter().any(|&(target, beta)| within(p, target, beta)));
+    compare_with_wall_areas("UP, user paths to the wall", n, &direct, &areas);
+    let areas = wall_areas(|p| floor_crossing(LIGHT_IMAGE, p).is_some_and(|m| within(m, mirror_point, beta_mirror)));
+    compare_with_wall_areas("UP, user path through the mirror", n, &mirrored, &areas);
 }
