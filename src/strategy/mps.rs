@@ -134,6 +134,13 @@ struct Stats {
     /// Total stored power (luminance) in each map.
     global_power: f64,
     caustic_power: f64,
+    /// Kish's effective sample size (Σ F)² / Σ F² of each map's photon powers (luminance): the
+    /// number of equal-power photons that would give a density estimate the same variance.
+    /// Photon tracing stores (nearly) equal powers, so its maps' ESS is their photon count;
+    /// a chain's repeated paths and importon-normalised powers make MPS's ESS smaller than its
+    /// count, which is why the counters report both.
+    global_ess: f64,
+    caustic_ess: f64,
     /// Photons dropped because no importon came near them (the renderer never reads them).
     unseen: usize,
 }
@@ -242,6 +249,8 @@ impl Strategy for Mps {
             tally: sampled.tally,
             global_power: power(&sampled.global),
             caustic_power: power(&sampled.caustic),
+            global_ess: effective_sample_size(&sampled.global),
+            caustic_ess: effective_sample_size(&sampled.caustic),
             unseen: sampled.unseen,
         });
         phases.extend(self.gather.build_maps(scene, sampled.global, sampled.caustic, seed));
@@ -265,12 +274,23 @@ impl Strategy for Mps {
             ("photons_unseen".to_string(), s.unseen as f64),
             ("global_power_y".to_string(), s.global_power),
             ("caustic_power_y".to_string(), s.caustic_power),
+            ("global_ess".to_string(), s.global_ess),
+            ("caustic_ess".to_string(), s.caustic_ess),
         ];
         out.extend(s.tally.counters());
         // The final gather's work and the maps' sizes (global_photons, caustic_photons, bytes).
         out.extend(Strategy::counters(&self.gather));
         out
     }
+}
+
+/// Kish's effective sample size (Σ w)² / Σ w² of the photons' luminance powers (0 for none).
+pub fn effective_sample_size(photons: &[Photon]) -> f64 {
+    let (sum, sum_sq) = photons.iter().fold((0.0, 0.0), |(s, q), p| {
+        let w = luminance(p.power()) as f64;
+        (s + w, q + w * w)
+    });
+    if sum_sq > 0.0 { sum * sum / sum_sq } else { 0.0 }
 }
 
 /// Which map a path stores into, at which vertex, with which flags.
@@ -548,4 +568,27 @@ fn sample_photons(
         all.unseen += r.unseen;
     }
     all
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn photons(powers: &[f32]) -> Vec<Photon> {
+        powers
+            .iter()
+            .map(|&w| Photon::new(Vec3::ZERO, Vec3::splat(w), Vec3::Y, Vec3::Y, 0))
+            .collect()
+    }
+
+    #[test]
+    fn effective_sample_size_counts_equal_photons_and_discounts_heavy_ones() {
+        assert!((effective_sample_size(&photons(&[0.5; 100])) - 100.0).abs() < 0.5);
+        // One photon holding as much power as 99 light ones: (2)² / (1 + 99 / 99²) ≈ 3.96.
+        let mut heavy = vec![1.0 / 99.0; 99];
+        heavy.push(1.0);
+        let ess = effective_sample_size(&photons(&heavy));
+        assert!((ess - 3.96).abs() < 0.05, "ESS {ess}");
+        assert_eq!(effective_sample_size(&[]), 0.0);
+    }
 }
