@@ -135,10 +135,11 @@ struct Stats {
     global_power: f64,
     caustic_power: f64,
     /// Kish's effective sample size (Σ F)² / Σ F² of each map's photon powers (luminance): the
-    /// number of equal-power photons that would give a density estimate the same variance.
-    /// Photon tracing stores (nearly) equal powers, so its maps' ESS is their photon count;
-    /// a chain's repeated paths and importon-normalised powers make MPS's ESS smaller than its
-    /// count, which is why the counters report both.
+    /// number of equal-power photons whose total would have the same relative variance.
+    /// Photon tracing stores (nearly) equal powers, so its ESS is its photon count. MPS's is
+    /// lower for two reasons the counter does not separate: by design (photons land ∝ f_eye, so
+    /// their power varies as 1 / importance: sparse, heavy photons where gathers rarely look)
+    /// and by the chain (repeated paths pile iterations of power onto one photon).
     global_ess: f64,
     caustic_ess: f64,
     /// Photons dropped because no importon came near them (the renderer never reads them).
