@@ -151,7 +151,12 @@ pub struct MetropolisParams {
     pub max_depth: u32,
     /// Path-tracing samples (whole-image eye paths) for B_eye and the chains' first states.
     pub b_samples: u64,
-    /// Independent chains (fixed, so results do not depend on the thread count).
+    /// Independent chains (fixed, so results do not depend on the thread count). **Decision:
+    /// many short chains (default 8192).** Every chain starts from a path resampled ∝ f/p, so a
+    /// short chain has no start-up bias, and it caps how many iterations a chain stuck in a
+    /// state its proposals cannot leave (L S D S E in `box`) piles onto one photon or pixel:
+    /// 64 → 8192 chains took MPS on box from rms_rel_lum 0.44 to 0.19 and MLT from 5.8 to 0.90
+    /// (README, "Reproducing Fan et al. 2005").
     pub chains: u32,
     /// PM cone half-angle γ in degrees (paper: 30).
     pub pm_gamma_deg: f32,
@@ -170,7 +175,7 @@ impl Default for MetropolisParams {
             proposals: ProposalMix::default(),
             max_depth: 16,
             b_samples: 100_000,
-            chains: 64,
+            chains: 8192,
             pm_gamma_deg: 30.0,
             lens_r1_px: 0.1,
             lens_r2_fraction: 0.1,
