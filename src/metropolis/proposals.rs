@@ -1,8 +1,8 @@
 //! The six proposals of Metropolis photon sampling [Fan et al. 2005, §4.1]: BD, CP, LP and LS
 //! from Veach's MLT [Veach 1997, §11.4], PM and UP from the paper; and a seventh, Veach's
 //! multi-chain perturbation MC [Veach 1997, §11.4.4], off unless a mix asks for it. Each
-//! returns a candidate path Y with the ratio of transition densities T(X|Y) / T(Y|X) (both in the area-product
-//! measure of the vertices the proposal changes, with dropped deltas as in
+//! returns a candidate path Y with the ratio of transition densities T(X|Y) / T(Y|X) (both in
+//! the area-product measure of the vertices the proposal changes, with dropped deltas as in
 //! [`crate::path_space`]), or `None` when it cannot propose (a rejection).
 
 use super::{MetropolisParams, UserPathInfo};
@@ -557,11 +557,10 @@ pub fn mc_density(scene: &Scene, path: &[Vertex], c: usize) -> f64 {
 /// ray is traced through the next specular chain. **Decision**: θ drawn afresh, not tied to the
 /// angle of the previous perturbation (one reading of Veach's text): a tied θ leaves the
 /// candidates on a set of lower dimension than the re-traced vertices, with no density in the
-/// area measure. (3) It stops at the first non-specular
-/// y_j whose x_{j−1} is non-specular too, connected to the unchanged x_{j−1} (shadow ray), or
-/// where a chain ends at the light: then the hit on the light is the new y₀. Every re-traced
-/// vertex must be specular exactly where X's is, so that the reverse move retraces the same
-/// chains.
+/// area measure. (3) It stops at the first non-specular y_j whose x_{j−1} is non-specular too,
+/// connected to the unchanged x_{j−1} (shadow ray), or where a chain ends at the light: then the
+/// hit on the light is the new y₀. Every re-traced vertex must be specular exactly where X's is,
+/// so that the reverse move retraces the same chains.
 ///
 /// **Densities.** The offset density p(u′|u) = 1 / (2π r² ln(r2/r1)) per unit raster area
 /// [Veach 1997, §11.4.3] and the angle density p(ω′|ω) = 1 / (2π sin θ · θ ln(θ2/θ1)) per unit
