@@ -131,7 +131,7 @@ fn metropolis(c: &mut Criterion) {
             "scenes/cornell-spheres.toml",
             &[Proposal::Bd, Proposal::Pm, Proposal::Cp, Proposal::Lp, Proposal::Ls][..],
         ),
-        ("scenes/box.toml", &[Proposal::Up][..]),
+        ("scenes/box.toml", &[Proposal::Up, Proposal::Mc][..]),
     ] {
         let scene = load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).expect("the shipped scene loads");
         let base = MetropolisParams {

@@ -343,13 +343,14 @@ fn run_command(command: Command) -> Result<Status> {
                 r.gather_rays_per_s
             );
             println!(
-                "  MH steps/s         bd {:.0}  pm {:.0}  cp {:.0}  lp {:.0}  ls {:.0}  up {:.0}  (each proposal alone)",
+                "  MH steps/s         bd {:.0}  pm {:.0}  cp {:.0}  lp {:.0}  ls {:.0}  up {:.0}  mc {:.0}  (each proposal alone)",
                 r.bd_mutations_per_s,
                 r.pm_mutations_per_s,
                 r.cp_mutations_per_s,
                 r.lp_mutations_per_s,
                 r.ls_mutations_per_s,
-                r.up_mutations_per_s
+                r.up_mutations_per_s,
+                r.mc_mutations_per_s
             );
             println!(
                 "  MPS photons/s      {:>12.0}  (stored per second of Metropolis sampling)",

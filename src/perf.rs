@@ -50,6 +50,7 @@ pub struct PerfReport {
     pub cp_mutations_per_s: f64,
     pub lp_mutations_per_s: f64,
     pub ls_mutations_per_s: f64,
+    pub mc_mutations_per_s: f64,
     /// Photons `mps` stores per second of its Metropolis sampling (defaults, importon
     /// normalisation, 200 000 steps).
     pub mps_photons_per_s: f64,
@@ -143,6 +144,7 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
         cp_mutations_per_s: mutations[3],
         lp_mutations_per_s: mutations[4],
         ls_mutations_per_s: mutations[5],
+        mc_mutations_per_s: mutations[6],
         mps_photons_per_s: measure_mps_photons(scene, seed),
         photons_per_s: photons.0,
         photons_stored: photons.1,
@@ -241,7 +243,7 @@ fn measure_gather(scene: &Scene, seed: u64) -> f64 {
 /// Metropolis steps per second of each proposal alone (UP with a chain that is UP alone,
 /// which validation refuses for rendering but is fine for timing), 64 chains of 5000 steps
 /// from path-tracing first states; NaN where a proposal cannot run.
-fn measure_mutations(scene: &Scene, seed: u64) -> [f64; 6] {
+fn measure_mutations(scene: &Scene, seed: u64) -> [f64; crate::metropolis::PROPOSALS] {
     use crate::metropolis::proposals::Context;
     use crate::metropolis::{Chain, MetropolisParams, Proposal, ProposalMix, State, Tally, estimate_b};
     let base = MetropolisParams {
@@ -249,7 +251,7 @@ fn measure_mutations(scene: &Scene, seed: u64) -> [f64; 6] {
         ..MetropolisParams::default()
     };
     let Ok((_, starts)) = estimate_b(scene, &base, seed) else {
-        return [f64::NAN; 6];
+        return [f64::NAN; crate::metropolis::PROPOSALS];
     };
     let user_paths = crate::metropolis::prepare_user_paths(scene).unwrap_or_default();
     let starts: Vec<State> = starts.into_iter().filter_map(|p| State::new(scene, p)).collect();

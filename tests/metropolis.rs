@@ -205,7 +205,11 @@ fn z_scores(
 /// one degree of freedom per estimate: a small bias spread over many estimates (a wrong
 /// Jacobian in one proposal) fails the joint test before any single z gets large.
 fn check(name: &str, proposals: ProposalMix) {
-    let scene = scene();
+    check_on(name, scene(), proposals);
+}
+
+/// [`check`] on another scene (at W × H).
+fn check_on(name: &str, scene: Scene, proposals: ProposalMix) {
     let (blocks, feats, b_rel, tally) = chain_estimates(&scene, proposals, 40_000);
     let mut zs = z_scores(name, "block", &blocks, &path_blocks(&scene), b_rel, &tally);
     zs.extend(z_scores(name, "feature", &feats, &path_features(&scene), b_rel, &tally));
@@ -231,6 +235,7 @@ fn mix(f: impl FnOnce(&mut ProposalMix)) -> ProposalMix {
         cp: 0.0,
         lp: 0.0,
         ls: 0.0,
+        mc: 0.0,
     };
     f(&mut m);
     m
@@ -266,6 +271,55 @@ fn up_with_bd_samples_f_eye() {
     check("up+bd", mix(|m| m.up = 0.5));
 }
 
+/// MC on cornell-spheres: its paths are the caustics of the glass sphere (L S S D E, MC's
+/// shortest case: the lens offset, then the direction from the floor back into the sphere, out
+/// to the light) and those caustics seen in the mirror sphere (L S S D S E).
+#[test]
+fn mc_with_bd_samples_f_eye() {
+    check("mc+bd", mix(|m| m.mc = 0.5));
+}
+
+/// `scenes/box.toml` (mirror right wall, mirror and glass balls) at W × H: the scene whose
+/// L S D S E paths MC was written for.
+fn box_scene() -> Scene {
+    let mut scene = load_scene(std::path::Path::new("scenes/box.toml")).unwrap();
+    let c = &scene.camera;
+    scene.camera = Camera::new(c.eye, c.look_at, c.up, c.fov_y_deg, W, H);
+    scene
+}
+
+/// MC on box, where most of its candidates are L S D S E paths through the mirror wall.
+#[test]
+fn mc_with_bd_samples_f_eye_on_box() {
+    check_on("mc+bd, box", box_scene(), mix(|m| m.mc = 0.5));
+}
+
+/// MC on the open box with a mirror floor ([`mirror_box`]) at W × H, its light widened to
+/// 0.6 × 0.6 m so that path tracing's reference for the paths through the mirror (which only
+/// eye paths hitting the light can sample) is not heavy-tailed: L S D E paths, MC's, carry much
+/// of the image. This is the MC chain test with power: correct code Σz² = 27.5 over 30
+/// estimates (p = 0.60); seeded bug, since reverted: MC's t_ratio taken as 1 (the vertex
+/// densities of mc_density left out), block 5 at z = −5.2 (on cornell-spheres and box that
+/// bug passes: MC's paths are a small, slowly mixed part of those images). A subtler seeded
+/// bug, mc_density without the light vertex's |cos| / r², passes all three (Σz² = 38.0 here):
+/// it changes the ratio by a factor that hardly varies over a perturbation; the density test
+/// below catches it.
+#[test]
+fn mc_with_bd_samples_f_eye_on_mirror_box() {
+    let light = "center = [0.2, 0.999, 0.5]\nsize = [0.2, 0.2]";
+    assert!(OPEN_BOX.contains(light));
+    let text = mirror_box_text().replace(light, "center = [0.5, 0.999, 0.5]\nsize = [0.6, 0.6]");
+    let mut scene = photon_bench::scene::load::load_scene_bytes(
+        std::path::Path::new("mirror-box-wide-light.toml"),
+        text.as_bytes(),
+    )
+    .unwrap()
+    .0;
+    let c = &scene.camera;
+    scene.camera = Camera::new(c.eye, c.look_at, c.up, c.fov_y_deg, W, H);
+    check_on("mc+bd, mirror box", scene, mix(|m| m.mc = 0.5));
+}
+
 #[test]
 fn up_without_user_paths_is_refused_with_a_clear_error() {
     let scene = load_scene(std::path::Path::new("scenes/cornell-spheres.toml")).unwrap();
@@ -284,6 +338,8 @@ fn proposal_probabilities_are_validated() {
         ("proposals = { bd = 1.5, ls = -0.5 }", "proposals.bd"),
         ("proposals = { up = 1.0 }", "needs bd > 0"),
         ("proposals = { bd = 1.0, xx = 0.0 }", "xx"),
+        ("proposals = { bd = 0.5, mc = 0.4 }", "sum to 1"),
+        ("proposals = { bd = 0.5, mc = -0.5, ls = 1.0 }", "proposals.mc"),
     ] {
         let table: toml::Table = toml::from_str(text).unwrap();
         for kind in ["mlt", "mps"] {
@@ -292,6 +348,19 @@ fn proposal_probabilities_are_validated() {
                 .map(|e| e.to_string())
                 .unwrap_or_default();
             assert!(err.contains(expect), "{kind} {text}: got `{err}`");
+        }
+    }
+}
+
+/// MC is off by default (every existing mix unchanged) and accepted with the others.
+#[test]
+fn mc_is_off_by_default_and_accepted_in_a_mix() {
+    assert_eq!(ProposalMix::default().mc, 0.0);
+    let table: toml::Table =
+        toml::from_str("proposals = { bd = 0.2, pm = 0.2, lp = 0.2, ls = 0.2, mc = 0.2 }").unwrap();
+    for kind in ["mlt", "mps"] {
+        if let Err(e) = strategy::build(kind, table.clone()) {
+            panic!("{kind}: {e}");
         }
     }
 }
@@ -497,9 +566,17 @@ fn pm_transition_density_matches_its_own_candidates() {
 /// which the tests of LP, CP and UP below use. Every segment they involve stays inside the box
 /// or crosses its open front, so nothing occludes it.
 fn mirror_box() -> Scene {
+    let file = std::path::Path::new("mirror-box.toml");
+    photon_bench::scene::load::load_scene_bytes(file, mirror_box_text().as_bytes())
+        .unwrap()
+        .0
+}
+
+/// The text of [`mirror_box`].
+fn mirror_box_text() -> String {
     let floor = "material = \"white\"\ncenter = [0.5, 0.0, 0.5]";
     assert!(OPEN_BOX.contains(floor));
-    let text = OPEN_BOX.replace(floor, "material = \"mirror\"\ncenter = [0.5, 0.0, 0.5]")
+    OPEN_BOX.replace(floor, "material = \"mirror\"\ncenter = [0.5, 0.0, 0.5]")
         + r#"
 [materials.mirror]
 type = "mirror"
@@ -511,11 +588,7 @@ material = "white"
 center = [0.0, 0.5, 0.5]
 size = [1.0, 1.0]
 facing = "+x"
-"#;
-    let file = std::path::Path::new("mirror-box.toml");
-    photon_bench::scene::load::load_scene_bytes(file, text.as_bytes())
-        .unwrap()
-        .0
+"#
 }
 
 /// The light's centre, x₀ of every path below, and its image in the mirror floor y = 0.
@@ -836,4 +909,114 @@ fn up_transition_density_matches_its_own_candidates() {
     compare_with_wall_areas("UP, user paths to the wall", n, &direct, &areas);
     let areas = wall_areas(|p| floor_crossing(LIGHT_IMAGE, p).is_some_and(|m| within(m, mirror_point, beta_mirror)));
     compare_with_wall_areas("UP, user path through the mirror", n, &mirrored, &areas);
+}
+
+/// MC against its own candidates. X = L S D E of the CP test: light reflected by the mirror
+/// floor onto the back wall at (0.5, 0.5, 1), seen by the eye; x₁ is specular, so LP cannot move
+/// it and MC can. MC moves the image point as LP does (offset r ∈ [r1, r2] ∝ 1/r, uniform
+/// angle: p(u′|u) = 1 / (2π r² ln(r2/r1)) per unit raster area), so the eye sees a new wall
+/// point y₂; turns the old direction x₂ → x₁ by θ ∈ [θ1, θ2] ∝ 1/θ with a uniform azimuth
+/// (p(ω′|ω) per unit solid angle) at y₂; follows the mirror, and the hit on the light is the
+/// new y₀ [Veach 1997, §11.4.4]. The T the acceptance uses is
+/// T(Y|X) = p(u′|u) p(ω′|ω) · mc_density(Y), taken as p p · mc_density(X) / t_ratio as for LP,
+/// in the area measure of y₂ and y₀ with the bounce's delta dropped; the law of (y₂, y₀) itself
+/// has density T / J, J = [`mirror_jacobian`] with o = y₂. With
+/// g = J · p(ω′|ω) |cos θ_{y₀}| / (|y₂ − y₁| + |y₁ − y₀|)² · 1{y₂ on the wall} (p(ω′|ω)
+/// cancels in g / T, so the measured angle's rounding does not matter), E[g / T] per wall cell
+/// is ∫_cell P(y₂) dA over the wall points whose image point lies at an offset in [r1, r2] from
+/// u, where P(y₂) = ∫ p(ω′|ω) 1{the ray from y₂ reaches the light through the mirror} dω′
+/// (quadrature in ln θ and φ, 128 × 128 midpoints, on a 5 mm grid of the wall).
+///
+/// Correct code: E = 0.11232 ± 0.00045 m² against 0.11178 m² (z = 1.19), Σz² = 27.4 over 19
+/// cells (p = 0.097). Seeded bugs, since reverted: mc_density without the |cos θ_{y₀}| / r² of
+/// the new light vertex: z = −56.3, Σz² = 6 914; θ uniform on [θ1, θ2] instead of ∝ 1/θ:
+/// z = −52.6, Σz² = 20 311; lens offsets with r uniform on [r1, r2] instead of ∝ 1/r: z = 156,
+/// Σz² = 24 160; the direction turned around y₂ → x₁ instead of X's x₂ → x₁ (then no longer
+/// symmetric): cells the reference reaches get no candidate at all.
+#[test]
+fn mc_transition_density_matches_its_own_candidates() {
+    use photon_bench::metropolis::proposals::{mc_density, multi_chain_perturbation};
+    use photon_bench::path_space::walk::trace_from;
+    let scene = mirror_box();
+    let params = MetropolisParams::default();
+    let ctx = Context::new(&scene, &params, &[]);
+    let cam = &scene.camera;
+    let eye = cam.eye.as_dvec3();
+    let wall_point = DVec3::new(0.5, 0.5, 1.0);
+    let x0 = light_vertex(&scene);
+    let m = floor_crossing(LIGHT_IMAGE, wall_point).unwrap();
+    let x1 = trace_from(&scene, &x0, (m - LIGHT).normalize().as_vec3()).unwrap();
+    let x2 = trace_from(&scene, &x1, (wall_point - m).normalize().as_vec3()).unwrap();
+    assert!(x1.delta && (x2.p.as_dvec3() - wall_point).length() < 1e-4);
+    let x = vec![x0, x1, x2, Vertex::eye(&scene)];
+    assert!(State::new(&scene, x.clone()).is_some());
+    let raster = |p: DVec3| cam.raster_position((p - eye).normalize().as_vec3());
+    let u = raster(wall_point).unwrap();
+    let r2 = (params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
+    let r1 = params.lens_r1_px.min(r2);
+    let offset_pdf = |r: f32| 1.0 / (std::f64::consts::TAU * (r as f64).powi(2) * (r2 as f64 / r1 as f64).ln());
+    let t_rev = mc_density(&scene, &x, 0);
+
+    let n = 400_000;
+    let mut rng = Rng::for_task(8, [0, 0, 0]);
+    let samples: Vec<(usize, f64)> = (0..n)
+        .filter_map(|_| {
+            let c = multi_chain_perturbation(&ctx, &x, &mut rng)?;
+            let y = &c.path;
+            if y.len() != 4 || !on_back_wall(&y[2]) {
+                return None;
+            }
+            let (y0, y1, y2) = (y[0].p.as_dvec3(), y[1].p.as_dvec3(), y[2].p.as_dvec3());
+            let r = (raster(y2)? - u).length();
+            // T / p(ω′|ω): the angle density cancels against g's.
+            let t = offset_pdf(r) * t_rev / c.t_ratio;
+            let (a, b) = ((y1 - y2).length(), (y0 - y1).length());
+            let cos0 = y[0].ng.as_dvec3().dot((y1 - y0) / b).abs();
+            let g = mirror_jacobian(y2, &y[1], y0) * cos0 / (a + b).powi(2);
+            Some((wall_cell(y[2].p), g / t))
+        })
+        .collect();
+
+    // P(y₂) by quadrature: θ = exp(t) with t uniform on [ln θ1, ln θ2] has density ∝ 1/θ.
+    let axis = (x1.p - x2.p).as_dvec3().normalize();
+    let e1 = axis.cross(DVec3::X).normalize();
+    let e2 = axis.cross(e1);
+    let (lt1, lt2) = ((params.caustic_theta1 as f64).ln(), (params.caustic_theta2 as f64).ln());
+    const Q: usize = 128;
+    let dirs: Vec<DVec3> = (0..Q * Q)
+        .map(|i| {
+            let theta = (lt1 + (lt2 - lt1) * ((i / Q) as f64 + 0.5) / Q as f64).exp();
+            let phi = std::f64::consts::TAU * ((i % Q) as f64 + 0.5) / Q as f64;
+            axis * theta.cos() + (e1 * phi.cos() + e2 * phi.sin()) * theta.sin()
+        })
+        .collect();
+    let reach_light = |p: DVec3| {
+        let hits = dirs
+            .iter()
+            .filter(|w| {
+                if w.y >= 0.0 {
+                    return false;
+                }
+                let m = p + **w * (p.y / -w.y);
+                let q = p + **w * ((p.y - LIGHT_IMAGE.y) / -w.y);
+                (0.0..=1.0).contains(&m.x)
+                    && (0.0..=1.0).contains(&m.z)
+                    && (LIGHT.x - 0.1..=LIGHT.x + 0.1).contains(&q.x)
+                    && (LIGHT.z - 0.1..=LIGHT.z + 0.1).contains(&q.z)
+            })
+            .count();
+        hits as f64 / dirs.len() as f64
+    };
+    const N: usize = 200;
+    let h = 1.0 / N as f64;
+    let mut expected = vec![0.0; WALL_CELLS * WALL_CELLS];
+    for j in 0..N {
+        for i in 0..N {
+            let p = DVec3::new((i as f64 + 0.5) * h, (j as f64 + 0.5) * h, 1.0);
+            if raster(p).is_some_and(|v| (r1..=r2).contains(&(v - u).length())) {
+                expected[wall_cell(p.as_vec3())] += h * h * reach_light(p);
+            }
+        }
+    }
+    compare_with_wall_areas("MC", n, &samples, &expected);
 }

@@ -41,6 +41,10 @@ pub struct ProposalMix {
     pub lp: f64,
     #[serde(default)]
     pub ls: f64,
+    /// The multi-chain perturbation (not in Fan et al. 2005; [Veach 1997, §11.4.4]): 0 unless
+    /// an experiment asks for it.
+    #[serde(default)]
+    pub mc: f64,
 }
 
 impl Default for ProposalMix {
@@ -53,9 +57,13 @@ impl Default for ProposalMix {
             cp: 0.0,
             lp: 0.2,
             ls: 0.2,
+            mc: 0.0,
         }
     }
 }
+
+/// Number of proposal types.
+pub const PROPOSALS: usize = 7;
 
 /// The proposal types, in the order of [`ProposalMix`] and of the counters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,20 +74,22 @@ pub enum Proposal {
     Cp,
     Lp,
     Ls,
+    Mc,
 }
 
 impl Proposal {
-    pub const ALL: [Proposal; 6] = [
+    pub const ALL: [Proposal; PROPOSALS] = [
         Proposal::Up,
         Proposal::Bd,
         Proposal::Pm,
         Proposal::Cp,
         Proposal::Lp,
         Proposal::Ls,
+        Proposal::Mc,
     ];
 
     pub fn name(self) -> &'static str {
-        ["up", "bd", "pm", "cp", "lp", "ls"][self as usize]
+        ["up", "bd", "pm", "cp", "lp", "ls", "mc"][self as usize]
     }
 }
 
@@ -87,14 +97,22 @@ impl ProposalMix {
     /// One proposal alone (for timing and tests: a chain of LP alone, say, is not ergodic, and
     /// UP alone is refused by validation).
     pub fn only(p: Proposal) -> Self {
-        let mut values = [0.0; 6];
+        let mut values = [0.0; PROPOSALS];
         values[p as usize] = 1.0;
-        let [up, bd, pm, cp, lp, ls] = values;
-        Self { up, bd, pm, cp, lp, ls }
+        let [up, bd, pm, cp, lp, ls, mc] = values;
+        Self {
+            up,
+            bd,
+            pm,
+            cp,
+            lp,
+            ls,
+            mc,
+        }
     }
 
     pub fn get(&self, p: Proposal) -> f64 {
-        [self.up, self.bd, self.pm, self.cp, self.lp, self.ls][p as usize]
+        [self.up, self.bd, self.pm, self.cp, self.lp, self.ls, self.mc][p as usize]
     }
 
     fn validate(&self) -> Result<()> {
@@ -107,14 +125,15 @@ impl ProposalMix {
         let sum: f64 = Proposal::ALL.iter().map(|&p| self.get(p)).sum();
         if (sum - 1.0).abs() > 1e-6 {
             crate::bail!(
-                "proposals: the probabilities up, bd, pm, cp, lp, ls must sum to 1, got {sum} \
-                 (up {}, bd {}, pm {}, cp {}, lp {}, ls {})",
+                "proposals: the probabilities up, bd, pm, cp, lp, ls, mc must sum to 1, got {sum} \
+                 (up {}, bd {}, pm {}, cp {}, lp {}, ls {}, mc {})",
                 self.up,
                 self.bd,
                 self.pm,
                 self.cp,
                 self.lp,
-                self.ls
+                self.ls,
+                self.mc
             );
         }
         if self.up > 0.0 && self.bd == 0.0 {
@@ -228,14 +247,16 @@ impl MetropolisParams {
     /// The parameters as result-row pairs.
     pub fn describe(&self) -> Vec<(&'static str, String)> {
         let p = &self.proposals;
+        let mut proposals = format!(
+            "up={} bd={} pm={} cp={} lp={} ls={}",
+            p.up, p.bd, p.pm, p.cp, p.lp, p.ls
+        );
+        // Only when used, so that the rows of every mix without it read as before.
+        if p.mc > 0.0 {
+            proposals += &format!(" mc={}", p.mc);
+        }
         vec![
-            (
-                "proposals",
-                format!(
-                    "up={} bd={} pm={} cp={} lp={} ls={}",
-                    p.up, p.bd, p.pm, p.cp, p.lp, p.ls
-                ),
-            ),
+            ("proposals", proposals),
             ("max_depth", self.max_depth.to_string()),
             ("b_samples", self.b_samples.to_string()),
             ("chains", self.chains.to_string()),
@@ -430,15 +451,15 @@ impl State {
 /// Per-proposal tallies.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Tally {
-    pub proposed: [u64; 6],
-    pub accepted: [u64; 6],
+    pub proposed: [u64; PROPOSALS],
+    pub accepted: [u64; PROPOSALS],
     /// Proposals that produced no path, or one with zero contribution.
-    pub zero: [u64; 6],
+    pub zero: [u64; PROPOSALS],
 }
 
 impl Tally {
     pub fn merge(&mut self, o: &Tally) {
-        for i in 0..6 {
+        for i in 0..PROPOSALS {
             self.proposed[i] += o.proposed[i];
             self.accepted[i] += o.accepted[i];
             self.zero[i] += o.zero[i];
@@ -528,6 +549,7 @@ impl<'a> Chain<'a> {
             Proposal::Cp => proposals::caustic_perturbation(ctx, x, rng),
             Proposal::Lp => proposals::lens_perturbation(ctx, x, rng),
             Proposal::Ls => proposals::lens_subpath(ctx, x, rng),
+            Proposal::Mc => proposals::multi_chain_perturbation(ctx, x, rng),
         }
     }
 

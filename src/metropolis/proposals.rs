@@ -1,7 +1,8 @@
 //! The six proposals of Metropolis photon sampling [Fan et al. 2005, §4.1]: BD, CP, LP and LS
-//! from Veach's MLT [Veach 1997, §11.4], PM and UP from the paper. Each returns a candidate
-//! path Y with the ratio of transition densities T(X|Y) / T(Y|X) (both in the area-product
-//! measure of the vertices the proposal changes, with dropped deltas as in
+//! from Veach's MLT [Veach 1997, §11.4], PM and UP from the paper; and a seventh, Veach's
+//! multi-chain perturbation MC [Veach 1997, §11.4.4], off unless a mix asks for it. Each
+//! returns a candidate path Y with the ratio of transition densities T(X|Y) / T(Y|X) (both in
+//! the area-product measure of the vertices the proposal changes, with dropped deltas as in
 //! [`crate::path_space`]), or `None` when it cannot propose (a rejection).
 
 use super::{MetropolisParams, UserPathInfo};
@@ -522,5 +523,103 @@ pub fn photon_map(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Candidat
     y.extend_from_slice(&x[d..]);
     let t_fwd = pm_density(scene, &y, e, d_y);
     let t_rev = pm_density(scene, x, e, d);
+    ratio(y, t_rev, t_fwd)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Multi-chain perturbation (MC) [Veach 1997, §11.4.4].
+
+/// Density of the vertices x_c … x_{k−1} that MC re-traces, per unit raster area of the image
+/// point and per unit solid angle of each turned direction: C(x_{k−1}) Π_{i=c}^{k−2}
+/// |cos θ_{x_i}| / |x_{i+1} − x_i|², each x_i reached from x_{i+1} by a kept specular bounce
+/// (its delta dropped, lobe probability 1) or by a turned direction. The same product as
+/// [`lp_density`]; the offset and angle densities are left out because they are symmetric.
+/// Public for the test that checks it against MC's own candidates.
+pub fn mc_density(scene: &Scene, path: &[Vertex], c: usize) -> f64 {
+    lp_density(scene, path, c)
+}
+
+/// MC, the multi-chain perturbation [Veach 1997, §11.4.4], for paths whose eye sub-path
+/// E S* D is followed by a specular vertex: … S+ D S* E.
+///
+/// **Why.** On the Box scene (mirror right wall) a chain finds paths L S D S E (light → mirror
+/// wall → floor or back wall → mirror wall → eye) and stays there: LP, LS and PM must reconnect
+/// x_d to x_{d−1} and CP must connect x_{k−1} to the eye, and here both are specular, so only BD's
+/// regeneration of (nearly) the whole path can leave, after thousands of steps that store one
+/// photon with a huge accumulated power. MC moves such a path a little, as LP and CP move theirs.
+///
+/// **Sampling.** (1) The image point moves by an offset of radius r ∈ [r1, r2] with density
+/// ∝ 1/r and a uniform angle, as LP's (`lens_r1_px`, `lens_r2_fraction`), and the new camera ray
+/// is traced through the same specular bounces (each reflecting or refracting as X does) to the
+/// first non-specular y_d. (2) At each non-specular y_j whose neighbour x_{j−1} toward the light
+/// is specular, the old direction x_j → x_{j−1} of X is turned by an angle θ ∈ [θ1, θ2] with
+/// density ∝ 1/θ and a uniform azimuth, as CP's (`caustic_theta1`, `caustic_theta2`), and the
+/// ray is traced through the next specular chain. **Decision**: θ drawn afresh, not tied to the
+/// angle of the previous perturbation (one reading of Veach's text): a tied θ leaves the
+/// candidates on a set of lower dimension than the re-traced vertices, with no density in the
+/// area measure. (3) It stops at the first non-specular y_j whose x_{j−1} is non-specular too,
+/// connected to the unchanged x_{j−1} (shadow ray), or where a chain ends at the light: then the
+/// hit on the light is the new y₀. Every re-traced vertex must be specular exactly where X's is,
+/// so that the reverse move retraces the same chains.
+///
+/// **Densities.** The offset density p(u′|u) = 1 / (2π r² ln(r2/r1)) per unit raster area
+/// [Veach 1997, §11.4.3] and the angle density p(ω′|ω) = 1 / (2π sin θ · θ ln(θ2/θ1)) per unit
+/// solid angle depend only on |u′ − u| and on the angle between ω and ω′, the same for the move
+/// X → Y and its reverse: they cancel in T(X|Y) / T(Y|X), as for LP and CP [Veach 1997,
+/// §11.4.3]. What remains is the conversion of each re-traced vertex to the area measure, with
+/// dropped deltas ([`crate::path_space`]): T(Y|X) = p(u′|u) C(y_{k−1}) Π p(ω′|ω) ·
+/// Π_{i=c}^{k−2} |cos θ_{y_i}| / |y_{i+1} − y_i|² ([`mc_density`]), c the lowest re-traced index
+/// (j of the connection, or 0).
+pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Candidate> {
+    let scene = ctx.scene;
+    let k = x.len() - 1;
+    let d = first_diffuse_from_eye(x)?;
+    if x[d - 1].connectible() {
+        // (L|D) D S* E: LP's paths, no further chain.
+        return None;
+    }
+    let cam = &scene.camera;
+    let u = raster_of(scene, x)?;
+    let r2 = (ctx.params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
+    let (r, phi) = perturbation(rng, ctx.params.lens_r1_px.min(r2), r2);
+    let u2 = u + r * Vec2::new(phi.cos(), phi.sin());
+    if u2.x < 0.0 || u2.y < 0.0 || u2.x >= cam.width as f32 || u2.y >= cam.height as f32 {
+        return None;
+    }
+    let (theta1, theta2) = (ctx.params.caustic_theta1, ctx.params.caustic_theta2);
+    let mut y = x.to_vec();
+    y[k - 1] = trace(scene, &cam.generate_ray(u2))?;
+    // y[i] is re-traced; walk toward the light until a connection or the light.
+    let mut i = k - 1;
+    let c = loop {
+        let v = y[i];
+        if v.delta != x[i].delta {
+            return None;
+        }
+        let dir = if v.delta {
+            let wo = v.frame.to_local(direction(&v, &y[i + 1]).0);
+            let wi = specular_direction(v.bsdf(scene), wo, reflects_at(x, i))?;
+            v.frame.to_world(wi)
+        } else if x[i - 1].connectible() {
+            if !visible(scene, &x[i - 1], &v) {
+                return None;
+            }
+            break i;
+        } else {
+            let axis = direction(&x[i], &x[i - 1]).0;
+            let (theta, phi) = perturbation(rng, theta1, theta2);
+            let local = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            Frame::from_normal(axis).to_world(local)
+        };
+        let next = trace_from(scene, &v, dir)?;
+        i -= 1;
+        if i == 0 {
+            y[0] = next.as_light(scene)?;
+            break 0;
+        }
+        y[i] = next;
+    };
+    let t_fwd = mc_density(scene, &y, c);
+    let t_rev = mc_density(scene, x, c);
     ratio(y, t_rev, t_fwd)
 }
