@@ -712,6 +712,16 @@ fn compare_with_wall_areas(what: &str, n: usize, samples: &[(usize, f64)], areas
     );
 }
 
+/// LP's and MC's image-point offsets: the range [r1, r2] of their length and their density per
+/// unit image area (raster units), length ∝ 1/r and a uniform angle, so
+/// p(r) = 1 / (2π r² ln(r2 / r1)) [Veach 1997, §11.4.3].
+fn lens_offsets(params: &MetropolisParams, cam: &Camera) -> (f32, f32, impl Fn(f32) -> f64) {
+    let r2 = (params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
+    let r1 = params.lens_r1_px.min(r2);
+    let pdf = move |r: f32| 1.0 / (std::f64::consts::TAU * (r as f64).powi(2) * (r2 as f64 / r1 as f64).ln());
+    (r1, r2, pdf)
+}
+
 /// LP against its own candidates. X = L D S E: the eye sees, in the mirror floor, the point
 /// (0.5, 0.2, 1) of the back wall, lit by the light. LP moves the image point by an offset of
 /// radius r ∈ [r1, r2] with density ∝ 1/r and a uniform angle [Veach 1997, §11.4.3], i.e.
@@ -752,9 +762,7 @@ fn lp_transition_density_matches_its_own_candidates() {
     assert!(State::new(&scene, x.clone()).is_some());
     let raster = |p: DVec3| cam.raster_position((p - eye).normalize().as_vec3());
     let u = raster(image(wall_point)).unwrap();
-    let r2 = (params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
-    let r1 = params.lens_r1_px.min(r2);
-    let offset_pdf = |r: f32| 1.0 / (std::f64::consts::TAU * (r as f64).powi(2) * (r2 as f64 / r1 as f64).ln());
+    let (r1, r2, offset_pdf) = lens_offsets(&params, cam);
     let t_rev = lp_density(&scene, &x, 1);
 
     let n = 400_000;
@@ -952,9 +960,7 @@ fn mc_transition_density_matches_its_own_candidates() {
     assert!(State::new(&scene, x.clone()).is_some());
     let raster = |p: DVec3| cam.raster_position((p - eye).normalize().as_vec3());
     let u = raster(wall_point).unwrap();
-    let r2 = (params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
-    let r1 = params.lens_r1_px.min(r2);
-    let offset_pdf = |r: f32| 1.0 / (std::f64::consts::TAU * (r as f64).powi(2) * (r2 as f64 / r1 as f64).ln());
+    let (r1, r2, offset_pdf) = lens_offsets(&params, cam);
     let t_rev = mc_density(&scene, &x, 0);
 
     let n = 400_000;

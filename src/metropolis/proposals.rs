@@ -394,6 +394,18 @@ fn perturbation(rng: &mut Rng, r1: f32, r2: f32) -> (f32, f32) {
     (r, TAU * rng.uniform())
 }
 
+/// The image point of `x` moved by an offset of length r ∈ [r1, r2] with density ∝ 1/r and a
+/// uniform angle [Veach 1997, §11.4.3] (LP and MC); `None` when it leaves the image.
+fn perturbed_image_point(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Vec2> {
+    let cam = &ctx.scene.camera;
+    let u = raster_of(ctx.scene, x)?;
+    let r2 = (ctx.params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
+    let (r, phi) = perturbation(rng, ctx.params.lens_r1_px.min(r2), r2);
+    let u2 = u + r * Vec2::new(phi.cos(), phi.sin());
+    let inside = u2.x >= 0.0 && u2.y >= 0.0 && u2.x < cam.width as f32 && u2.y < cam.height as f32;
+    inside.then_some(u2)
+}
+
 /// LP: moves the image point of a path (L|D) D S* E by an offset with density ∝ 1/r on
 /// [r1, r2] (symmetric), re-traces the eye sub-path through the same specular bounces and
 /// reconnects x_d to x_{d−1}.
@@ -405,13 +417,7 @@ pub fn lens_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<C
         return None;
     }
     let cam = &scene.camera;
-    let u = raster_of(scene, x)?;
-    let r2 = (ctx.params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
-    let (r, phi) = perturbation(rng, ctx.params.lens_r1_px.min(r2), r2);
-    let u2 = u + r * Vec2::new(phi.cos(), phi.sin());
-    if u2.x < 0.0 || u2.y < 0.0 || u2.x >= cam.width as f32 || u2.y >= cam.height as f32 {
-        return None;
-    }
+    let u2 = perturbed_image_point(ctx, x, rng)?;
     let mut y = x.to_vec();
     y[k - 1] = trace(scene, &cam.generate_ray(u2))?;
     for i in (d..k - 1).rev() {
@@ -579,13 +585,7 @@ pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> O
         return None;
     }
     let cam = &scene.camera;
-    let u = raster_of(scene, x)?;
-    let r2 = (ctx.params.lens_r2_fraction * cam.pixel_count() as f32 / std::f32::consts::PI).sqrt();
-    let (r, phi) = perturbation(rng, ctx.params.lens_r1_px.min(r2), r2);
-    let u2 = u + r * Vec2::new(phi.cos(), phi.sin());
-    if u2.x < 0.0 || u2.y < 0.0 || u2.x >= cam.width as f32 || u2.y >= cam.height as f32 {
-        return None;
-    }
+    let u2 = perturbed_image_point(ctx, x, rng)?;
     let (theta1, theta2) = (ctx.params.caustic_theta1, ctx.params.caustic_theta2);
     let mut y = x.to_vec();
     y[k - 1] = trace(scene, &cam.generate_ray(u2))?;
