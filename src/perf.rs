@@ -309,10 +309,29 @@ fn measure_mps_photons(scene: &Scene, seed: u64) -> f64 {
 }
 
 /// Appends `rows` to a CSV file (header written when the file is new): `bench perf --csv`
-/// collects measurements of many runs and machines in one file.
+/// collects measurements of many runs and machines in one file. A file whose header differs
+/// from this version's columns (written before a column was added) is refused, not
+/// misaligned.
 pub fn append_csv<T: serde::Serialize>(rows: &[T], path: &std::path::Path) -> crate::Result<()> {
     use crate::error::Context;
     let exists = path.exists();
+    if let (true, Some(first)) = (exists, rows.first()) {
+        let mut header = csv::Writer::from_writer(Vec::new());
+        header.serialize(first).context(path.display())?;
+        let expected = String::from_utf8_lossy(&header.into_inner().unwrap_or_default())
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .to_string();
+        let existing = std::fs::read_to_string(path).context(path.display())?;
+        let found = existing.lines().next().unwrap_or_default();
+        if !existing.is_empty() && found != expected {
+            crate::bail!(
+                "{}: its columns ({found}) are not this version's ({expected}); append to a new file",
+                path.display()
+            );
+        }
+    }
     let file = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -436,4 +455,39 @@ pub fn measure_photon_scale(scene: &Scene, sizes: &[usize], queries: usize) -> V
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::append_csv;
+
+    #[derive(serde::Serialize)]
+    struct Old {
+        a: u32,
+    }
+
+    #[derive(serde::Serialize)]
+    struct New {
+        a: u32,
+        b: u32,
+    }
+
+    #[test]
+    fn appending_with_other_columns_is_refused_and_leaves_the_file_alone() {
+        let dir = std::env::temp_dir().join(format!("photon-bench-append-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("perf.csv");
+        let _ = std::fs::remove_file(&path);
+        append_csv(&[Old { a: 1 }], &path).unwrap();
+        append_csv(&[Old { a: 2 }], &path).unwrap();
+        let before = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(before, "a\n1\n2\n");
+        let err = append_csv(&[New { a: 3, b: 4 }], &path).unwrap_err().to_string();
+        assert!(
+            err.contains("perf.csv") && err.contains("(a)") && err.contains("(a,b)"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
