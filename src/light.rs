@@ -61,6 +61,7 @@ impl AreaLight {
     }
 
     /// A uniformly distributed point on the light's surface.
+    #[inline]
     pub fn sample_point(&self, prim: &Primitive, u: Vec2) -> LightPoint {
         let p = match *prim {
             Primitive::Triangle([a, b, c]) => {
@@ -299,53 +300,87 @@ pub fn local_weight(light: &AreaLight, prim: &Primitive, r: &Receiver) -> f32 {
 
 /// Light selection at one receiver: built once per vertex, used to pick the light for
 /// next-event estimation there and, for MIS, to give the probability with which that same
-/// vertex would have picked a light that a BSDF-sampled ray from it hits.
-#[derive(Clone, Debug)]
+/// vertex would have picked a light that a BSDF-sampled ray from it hits. Small and `Copy`:
+/// the path keeps the previous vertex's one for the MIS weight. The local weights themselves
+/// live in a [`LocalWeights`] buffer owned by the caller, which [`LightContext::choose`] reads
+/// right after [`LightSampling::at`] filled it; [`LightContext::pmf`] recomputes the one weight
+/// it needs, bit for bit the same value.
+#[derive(Clone, Copy, Debug)]
 pub struct LightContext {
+    /// The shading point; its normal and sidedness only with local selection (they are not
+    /// needed otherwise and not computed).
     pub receiver: Receiver,
     sphere: SphereSampling,
-    /// Local weights of every light and their sum; `None` for power selection.
-    local: Option<([f32; LOCAL_SELECTION_MAX_LIGHTS], f32)>,
+    /// The sum of the local weights of every light; `None` for power selection.
+    local_total: Option<f32>,
+}
+
+/// Scratch space for the local weights of every light at one receiver.
+#[derive(Clone, Debug)]
+pub struct LocalWeights([f32; LOCAL_SELECTION_MAX_LIGHTS]);
+
+impl Default for LocalWeights {
+    fn default() -> Self {
+        Self([0.0; LOCAL_SELECTION_MAX_LIGHTS])
+    }
 }
 
 impl LightSampling {
-    /// The light selection for receiver `r` (O(#lights) for local selection).
-    pub fn at(&self, scene: &Scene, r: Receiver) -> LightContext {
-        let local =
-            (self.selection == LightSelection::Local && scene.lights.len() <= LOCAL_SELECTION_MAX_LIGHTS).then(|| {
-                let mut w = [0.0f32; LOCAL_SELECTION_MAX_LIGHTS];
-                let mut total = 0.0f32;
-                for (wi, light) in w.iter_mut().zip(&scene.lights) {
-                    *wi = local_weight(light, &scene.primitives[light.prim as usize], &r);
-                    total += *wi;
-                }
-                (w, total)
-            });
+    /// The light selection at a shading point `p`. Local selection builds the full receiver with
+    /// `receiver` and writes every light's weight into `weights` (O(#lights)); power selection
+    /// needs neither, so the per-vertex cost of the default stays a few instructions.
+    #[inline]
+    pub fn at(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        receiver: impl FnOnce() -> Receiver,
+        weights: &mut Option<LocalWeights>,
+    ) -> LightContext {
+        if self.selection == LightSelection::Local && scene.lights.len() <= LOCAL_SELECTION_MAX_LIGHTS {
+            let r = receiver();
+            let w = weights.get_or_insert_with(LocalWeights::default);
+            let mut total = 0.0f32;
+            for (wi, light) in w.0.iter_mut().zip(&scene.lights) {
+                *wi = local_weight(light, &scene.primitives[light.prim as usize], &r);
+                total += *wi;
+            }
+            return LightContext {
+                receiver: r,
+                sphere: self.sphere,
+                local_total: Some(total),
+            };
+        }
         LightContext {
-            receiver: r,
+            receiver: Receiver {
+                p,
+                n: Vec3::ZERO,
+                two_sided: true,
+            },
             sphere: self.sphere,
-            local,
+            local_total: None,
         }
     }
 }
 
 impl LightContext {
     /// Picks a light with `u ∈ [0, 1)`: its index and probability; `None` when no light can
-    /// contribute at the receiver (local selection only).
+    /// contribute at the receiver (local selection only). `weights` must be the buffer
+    /// [`LightSampling::at`] filled for this context.
     #[inline]
-    pub fn choose(&self, scene: &Scene, u: f32) -> Option<(usize, f32)> {
-        let Some((w, total)) = &self.local else {
+    pub fn choose(&self, scene: &Scene, weights: &Option<LocalWeights>, u: f32) -> Option<(usize, f32)> {
+        let (Some(total), Some(weights)) = (self.local_total, weights) else {
             let (i, pmf, _) = scene.light_selection.sample(u);
             return Some((i, pmf));
         };
-        if *total <= 0.0 {
+        if total <= 0.0 {
             return None;
         }
-        let n = scene.lights.len();
+        let w = &weights.0[..scene.lights.len()];
         let target = u * total;
         let mut acc = 0.0f32;
         let mut last = None;
-        for (i, &wi) in w[..n].iter().enumerate() {
+        for (i, &wi) in w.iter().enumerate() {
             if wi > 0.0 {
                 acc += wi;
                 last = Some(i);
@@ -361,15 +396,13 @@ impl LightContext {
     /// Probability that [`LightContext::choose`] picks light `i`.
     #[inline]
     pub fn pmf(&self, scene: &Scene, i: usize) -> f32 {
-        match &self.local {
+        match self.local_total {
             None => scene.light_selection.pmf(i),
-            Some((w, total)) => {
-                if *total > 0.0 {
-                    w[i] / total
-                } else {
-                    0.0
-                }
+            Some(total) if total > 0.0 => {
+                let light = &scene.lights[i];
+                local_weight(light, &scene.primitives[light.prim as usize], &self.receiver) / total
             }
+            Some(_) => 0.0,
         }
     }
 
@@ -649,7 +682,7 @@ mod tests {
             n: -Vec3::Z,
             two_sided: false,
         };
-        let ctx = sampling.at(&scene, r);
+        let ctx = sampling.at(&scene, r.p, || r, &mut None);
         assert!(ctx.pmf(&scene, 4) > 0.9, "{}", ctx.pmf(&scene, 4));
         assert!(scene.light_selection.pmf(4) < 0.3);
         // Above the ceiling quad (lights 0 and 1 emit downwards): they get probability 0.
@@ -659,11 +692,13 @@ mod tests {
         }
         .at(
             &scene,
-            Receiver {
+            Vec3::new(0.0, 1.5, 0.0),
+            || Receiver {
                 p: Vec3::new(0.0, 1.5, 0.0),
                 n: -Vec3::Y,
                 two_sided: true,
             },
+            &mut None,
         );
         assert_eq!(above.pmf(&scene, 0), 0.0);
         assert_eq!(above.pmf(&scene, 1), 0.0);
@@ -687,15 +722,17 @@ mod tests {
                 n: Vec3::new(0.3, 1.0, -0.2 * k as f32).normalize(),
                 two_sided: k == 2,
             };
+            let mut weights = None;
             let ctx = LightSampling {
                 selection,
                 sphere: SphereSampling::Area,
             }
-            .at(&scene, r);
+            .at(&scene, r.p, || r, &mut weights);
             let n = 100_000;
             let mut counts = vec![0.0f64; n_lights];
             for _ in 0..n {
-                let (i, pmf) = ctx.choose(&scene, rng.uniform()).unwrap();
+                let (i, pmf) = ctx.choose(&scene, &weights, rng.uniform()).unwrap();
+                // Bit for bit: the MIS weight recomputes the one weight it needs.
                 assert_eq!(pmf, ctx.pmf(&scene, i));
                 counts[i] += 1.0;
             }
@@ -718,16 +755,15 @@ mod tests {
         for selection in [LightSelection::Power, LightSelection::Local] {
             for sphere in [SphereSampling::Area, SphereSampling::Cone] {
                 let sampling = LightSampling { selection, sphere };
-                let ctx = sampling.at(
-                    &scene,
-                    Receiver {
-                        p: Vec3::new(0.0, 0.1, 0.0),
-                        n: Vec3::Y,
-                        two_sided: true,
-                    },
-                );
+                let mut weights = None;
+                let r = Receiver {
+                    p: Vec3::new(0.0, 0.1, 0.0),
+                    n: Vec3::Y,
+                    two_sided: true,
+                };
+                let ctx = sampling.at(&scene, r.p, || r, &mut weights);
                 for _ in 0..2000 {
-                    let Some((i, pmf)) = ctx.choose(&scene, rng.uniform()) else {
+                    let Some((i, pmf)) = ctx.choose(&scene, &weights, rng.uniform()) else {
                         continue;
                     };
                     let light = &scene.lights[i];

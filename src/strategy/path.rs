@@ -31,7 +31,7 @@ use super::{Strategy, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::film::Film;
 use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray};
-use crate::light::{LightContext, LightSampling, LightSelection, PointPdf, Receiver, SphereSampling};
+use crate::light::{LightContext, LightSampling, LightSelection, LocalWeights, PointPdf, Receiver, SphereSampling};
 use crate::sampling::{Rng, power_heuristic, sample_uniform_hemisphere, sample_uniform_sphere, uniform_sphere_pdf};
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
@@ -257,12 +257,12 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
     wo: Vec3,
     rng: &mut Rng,
     direct: Direct,
-    lights: &LightContext,
+    (lights, weights): (&LightContext, &Option<LocalWeights>),
     (sampler, vertex): (&S, &S::Vertex),
     tally: &mut impl RayTally,
 ) -> Vec3 {
     let (u_light, u_point) = (rng.uniform(), rng.uniform2());
-    let Some((light_index, pmf)) = lights.choose(scene, u_light) else {
+    let Some((light_index, pmf)) = lights.choose(scene, weights, u_light) else {
         return Vec3::ZERO;
     };
     let light = &scene.lights[light_index];
@@ -359,6 +359,7 @@ pub fn trace<S: DirectionSampler>(
     // The light selection of the vertex that produced `ray` (where it did light sampling): the
     // light pdf of the MIS weight must be the one light sampling had there.
     let mut prev_lights: Option<LightContext> = None;
+    let mut weights = None;
     let nee = params.direct != Direct::Bsdf;
     let mut depth = 0u32;
     loop {
@@ -391,8 +392,14 @@ pub fn trace<S: DirectionSampler>(
         let bsdf = scene.bsdf(&hit);
         let wo = hit.frame.to_local(-ray.d);
         let vertex = sampler.vertex(scene, &hit, bsdf, wo);
-        let lights = (nee && !bsdf.is_delta()).then(|| params.lights.at(scene, receiver(&hit, bsdf, wo)));
+        let lights = (nee && !bsdf.is_delta()).then(|| {
+            params
+                .lights
+                .at(scene, hit.p, || receiver(&hit, bsdf, wo), &mut weights)
+        });
         if let Some(lights) = &lights {
+            let light_choice = (lights, &weights);
+            let direct = params.direct;
             l += beta
                 * estimate_direct(
                     scene,
@@ -400,8 +407,8 @@ pub fn trace<S: DirectionSampler>(
                     bsdf,
                     wo,
                     rng,
-                    params.direct,
-                    lights,
+                    direct,
+                    light_choice,
                     (sampler, &vertex),
                     tally,
                 );

@@ -785,7 +785,12 @@ impl Renderer<'_> {
         let scene = self.scene;
         let wo = hit.frame.to_local(wo_world);
         let sampler = BsdfSampling::Importance;
-        let lights = self.params.light_sampling().at(scene, receiver(hit, bsdf, wo));
+        let mut weights = None;
+        let lights = self
+            .params
+            .light_sampling()
+            .at(scene, hit.p, || receiver(hit, bsdf, wo), &mut weights);
+        let light_choice = (&lights, &weights);
         let direct = estimate_direct(
             scene,
             hit,
@@ -793,7 +798,7 @@ impl Renderer<'_> {
             wo,
             rng,
             Direct::Nee,
-            &lights,
+            light_choice,
             (&sampler, &()),
             &mut (),
         );
