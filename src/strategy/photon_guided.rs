@@ -434,6 +434,38 @@ mod tests {
         )
     }
 
+    /// The light sampling options change next-event estimation only: the photon map that
+    /// guiding builds its pdfs from (emission ∝ power, as Jensen's photons) is the same photon
+    /// for photon with `light_selection = "local"` and `sphere_light_sampling = "cone"`.
+    #[test]
+    fn light_sampling_options_leave_the_photon_map_unchanged() {
+        let scene = {
+            let mut b = crate::photon::test_scenes::SceneBuilder::new();
+            let grey = b.lambertian(Vec3::splat(0.6));
+            b.closed_box(grey, Vec3::splat(4.0));
+            b.build()
+        };
+        let map = |light_selection, sphere_light_sampling| {
+            let mut g = PhotonGuided::new(PhotonGuidedParams {
+                photons: 2000,
+                light_selection,
+                sphere_light_sampling,
+                ..PhotonGuidedParams::default()
+            })
+            .unwrap();
+            g.prepare(&scene, 4).unwrap();
+            g.map()
+                .unwrap()
+                .items()
+                .iter()
+                .map(|p| (p.position, p.direction, p.flux))
+                .collect::<Vec<_>>()
+        };
+        let power = map(LightSelection::Power, SphereSampling::Area);
+        assert_eq!(power.len(), 2000);
+        assert_eq!(power, map(LightSelection::Local, SphereSampling::Cone));
+    }
+
     /// The guided sampler at a glossy vertex (product grid, with and without the BSDF mixture)
     /// draws directions with the pdf it reports: a chi-square test over the sphere.
     #[test]
