@@ -85,8 +85,8 @@ impl AreaLight {
 /// is. `"local"` picks ∝ an estimate of light i's unoccluded contribution at the shading point,
 /// [`local_weight`] = Y(Leᵢ) · Ωᵢ(x) · c̄ᵢ(x) (solid angle times an upper bound of the receiver
 /// cosine), the per-point importance many-light samplers use [Shirley, Wang & Zimmerman 1996,
-/// "Monte Carlo Techniques for Direct Lighting Calculations", §3; Conty Estevez & Kulla 2018,
-/// "Importance Sampling of Many Lights with Adaptive Tree Splitting", eq. (3), whose
+/// "Monte Carlo Techniques for Direct Lighting Calculations", ACM TOG 15(1); Conty Estevez &
+/// Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree Splitting", HPG, whose
 /// bounding-cone cosine bound this borrows]. Why: with power selection a weak light next to the
 /// shading point (Jensen 1995's bulb inside its lamp shade) is rarely picked although it
 /// dominates there. It costs O(#lights) per vertex, so scenes with more than
@@ -113,7 +113,7 @@ pub enum LightSelection {
 /// the far side, hidden by the sphere itself, and the solid-angle pdf varies with 1/cos θ'
 /// across the visible cap. `"cone"` samples directions uniformly inside the cone the sphere
 /// subtends at the shading point x and takes the near intersection, pdf 1 / (2π (1 − cos θmax))
-/// with sin θmax = r / |c − x| [Shirley, Wang & Zimmerman 1996, §3.2; the approach of pbrt's
+/// with sin θmax = r / |c − x| [Shirley, Wang & Zimmerman 1996; the approach of pbrt-v3's
 /// `Sphere::Sample(ref, u)`]: every sample lands on the visible cap and the estimator of an
 /// unoccluded sphere's irradiance has only the receiver cosine's variance. At points on or
 /// inside the sphere (|c − x|² ≤ 1.0001 r², pbrt's margin) there is no cone and area sampling
@@ -189,7 +189,7 @@ pub fn sphere_cone_pdf(center: Vec3, radius: f32, x: Vec3) -> Option<f32> {
 }
 
 /// A point on the part of a sphere visible from `x`, reached by a direction uniform in the cone
-/// the sphere subtends [Shirley, Wang & Zimmerman 1996, §3.2]; `None` when `x` is on or inside.
+/// the sphere subtends [Shirley, Wang & Zimmerman 1996]; `None` when `x` is on or inside.
 ///
 /// The direction makes angle θ with the axis x → c, cos θ = 1 − u₀ (1 − cos θmax); its near
 /// intersection with the sphere is found as the angle α at the centre between c → x and

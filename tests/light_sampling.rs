@@ -89,7 +89,7 @@ fn sphere_irradiance(x: DVec3, n: DVec3, center: DVec3, radius: f64, le: f64) ->
 
 /// Lambert's formula: E = Le/2 |Σ Θᵢ n · (vᵢ × vᵢ₊₁) / |vᵢ × vᵢ₊₁||, vᵢ the unit vectors to the
 /// vertices of a polygon wholly above the horizon [Arvo 1995, "Applications of Irradiance
-/// Tensors", eq. (12)].
+/// Tensors"].
 fn polygon_irradiance(x: DVec3, n: DVec3, poly: &[DVec3], le: f64) -> f64 {
     let v: Vec<DVec3> = poly.iter().map(|p| (*p - x).normalize()).collect();
     let sum: f64 = (0..v.len())
