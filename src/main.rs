@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use photon_bench::error::{Error, Result};
 use photon_bench::experiment::{self, Experiment, reference};
+use photon_bench::light::{LightSelection, SphereSampling};
 use photon_bench::scene::load_scene;
 use photon_bench::strategy::path::{BsdfSampling, Direct, PathParams, Roulette};
 use std::path::PathBuf;
@@ -70,6 +71,12 @@ enum Command {
         /// importance | uniform (uniform: no importance sampling, as Jensen 1995's reference)
         #[arg(long, default_value = "importance")]
         bsdf_sampling: String,
+        /// power | local (how next-event estimation picks a light)
+        #[arg(long, default_value = "power")]
+        light_selection: String,
+        /// area | cone (how next-event estimation samples sphere lights)
+        #[arg(long, default_value = "area")]
+        sphere_light_sampling: String,
         /// Replace an existing reference.
         #[arg(long)]
         force: bool,
@@ -236,6 +243,8 @@ fn run_command(command: Command) -> Result<Status> {
             roulette,
             direct,
             bsdf_sampling,
+            light_selection,
+            sphere_light_sampling,
             force,
         } => {
             if spp == 0 || spp > 1 << 24 {
@@ -247,6 +256,8 @@ fn run_command(command: Command) -> Result<Status> {
                 direct: parse_enum::<Direct>("--direct", &direct)?,
                 bsdf_sampling: parse_enum::<BsdfSampling>("--bsdf-sampling", &bsdf_sampling)?,
                 roulette: parse_enum::<Roulette>("--roulette", &roulette)?,
+                light_selection: parse_enum::<LightSelection>("--light-selection", &light_selection)?,
+                sphere_light_sampling: parse_enum::<SphereSampling>("--sphere-light-sampling", &sphere_light_sampling)?,
             };
             let scene = load_scene(&scene)?;
             let existing = reference::exr_path(&out, &scene.name);

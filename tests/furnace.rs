@@ -7,7 +7,7 @@ use photon_bench::bsdf::{Bsdf, Lambertian};
 use photon_bench::camera::Camera;
 use photon_bench::film::Film;
 use photon_bench::geometry::Primitive;
-use photon_bench::light::Emission;
+use photon_bench::light::{Emission, LightSelection, SphereSampling};
 use photon_bench::scene::{Material, PrimAttrs, Scene};
 use photon_bench::strategy::path::{BsdfSampling, Direct, PathParams, Roulette};
 use photon_bench::strategy::{Path, Strategy};
@@ -102,6 +102,35 @@ fn furnace_with_russian_roulette_converges_to_le_over_one_minus_albedo() {
                 (got - expected).abs() < 0.02 * expected,
                 "{roulette:?} {bsdf_sampling:?}: {got} vs {expected}"
             );
+        }
+    }
+}
+
+/// Every light sampling option keeps the furnace exact. The camera sits inside the emissive
+/// sphere, so local selection must give the surrounding two-sided light a positive weight, and
+/// cone sampling must fall back to area sampling (there is no cone from inside); with MIS the
+/// BSDF-sampled hits must be weighted with that same fallback density.
+#[test]
+fn furnace_holds_for_every_light_sampling_option() {
+    let albedo = 0.7f32;
+    for direct in [Direct::Mis, Direct::Nee] {
+        for light_selection in [LightSelection::Power, LightSelection::Local] {
+            for sphere_light_sampling in [SphereSampling::Area, SphereSampling::Cone] {
+                let params = PathParams {
+                    max_depth: 3,
+                    rr_depth: 100,
+                    direct,
+                    light_selection,
+                    sphere_light_sampling,
+                    ..PathParams::default()
+                };
+                let expected: f64 = (0..=3).map(|k| (albedo as f64).powi(k)).sum();
+                let got = mean_radiance(params, albedo, 64);
+                assert!(
+                    (got - expected).abs() < 0.02 * expected,
+                    "{direct:?} {light_selection:?} {sphere_light_sampling:?}: {got} vs {expected}"
+                );
+            }
         }
     }
 }

@@ -73,6 +73,25 @@ fn glossy_guiding_agrees_with_path() {
     }
 }
 
+/// The light sampling options (local selection, cone sampling of the bulb) change only
+/// next-event estimation and its MIS weight against the guided pdf: `photon_guided` with them
+/// must agree with `path` on `desk-lamp`, whose bulb is a sphere inside a transmitting shade.
+#[test]
+fn photon_guided_with_local_light_selection_agrees_with_path_on_desk_lamp() {
+    let file = "scenes/desk-lamp.toml";
+    let text = std::fs::read_to_string(file)
+        .unwrap()
+        .replace("resolution = [160, 120]", "resolution = [40, 30]");
+    let (scene, _) = load_scene_bytes(std::path::Path::new(file), text.as_bytes()).unwrap();
+    let (m0, se0) = mean_and_se(&scene, "path", "", 8, 64);
+    assert!(se0 < 0.01 * m0, "baseline precise enough: {m0} ± {se0}");
+    let params = "photons = 20000\nlight_selection = \"local\"\nsphere_light_sampling = \"cone\"";
+    let (m, se) = mean_and_se(&scene, "photon_guided", params, 8, 16);
+    assert!(se < 0.02 * m, "guided precise enough: {m} ± {se}");
+    let z = (m - m0).abs() / (se * se + se0 * se0).sqrt();
+    assert!(z < 4.5, "mean {m} ± {se} vs path {m0} ± {se0} (z = {z:.1})");
+}
+
 /// Per-pixel variance of one path sample through the centre of `pixel`, over `n` samples.
 fn pixel_variance<S: DirectionSampler>(scene: &Scene, walk: &Walk, sampler: &S, pixel: Vec2, n: u64) -> f64 {
     let ray = scene.camera.generate_ray(pixel);
@@ -109,6 +128,7 @@ fn albedo_roulette_keeps_the_variance_reduction_of_guiding() {
         rr_depth: 3,
         roulette,
         direct: Direct::Mis,
+        lights: Default::default(),
     };
     let n = 30_000;
     let (mut standard, mut albedo, mut throughput) = (0.0, 0.0, 0.0);

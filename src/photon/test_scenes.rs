@@ -58,6 +58,16 @@ impl SceneBuilder {
         });
     }
 
+    /// A sphere emitting `emission` from its surface.
+    pub fn sphere_light(&mut self, center: Vec3, radius: f32, material: u32, emission: Emission) {
+        self.prims.push(Primitive::Sphere { center, radius });
+        self.attrs.push(PrimAttrs {
+            material,
+            normals: None,
+            emission: Some(emission),
+        });
+    }
+
     /// The closed unit cube [0, 1]³ seen from inside: floor, four walls and a ceiling that
     /// emits `le` downward; every face uses `material`.
     pub fn closed_box(&mut self, material: u32, le: Vec3) {

@@ -269,8 +269,26 @@ mod tests {
 
     #[test]
     fn files_written_before_the_flip_column_load_and_compare_without_it() {
-        // The committed baseline predates both optional columns.
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/baseline/metrics.csv");
+        // A file as written before the two optional columns existed: the committed baseline
+        // with `flip` and `mse_ldr` dropped.
+        let baseline = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/baseline/metrics.csv");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.csv");
+        {
+            let mut reader = csv::Reader::from_path(&baseline).unwrap();
+            let header = reader.headers().unwrap().clone();
+            let keep: Vec<usize> = (0..header.len())
+                .filter(|&i| !matches!(&header[i], "flip" | "mse_ldr"))
+                .collect();
+            assert_eq!(keep.len() + 2, header.len(), "the baseline has both optional columns");
+            let mut writer = csv::Writer::from_path(&path).unwrap();
+            writer.write_record(keep.iter().map(|&i| &header[i])).unwrap();
+            for record in reader.records() {
+                let record = record.unwrap();
+                writer.write_record(keep.iter().map(|&i| &record[i])).unwrap();
+            }
+            writer.flush().unwrap();
+        }
         let old = read_csv(&path).unwrap();
         assert!(
             !old.is_empty()
@@ -294,7 +312,6 @@ mod tests {
         assert!(!metrics_of(&mixed).contains(&"flip") && metrics_of(&mixed).contains(&"mse"));
         assert!(metrics_of(&crate::report::compare::compare(&new, &new).unwrap()).contains(&"flip"));
         // Written and read again, the column is there.
-        let dir = tempfile::tempdir().unwrap();
         write_csv(&new, &dir.path().join("m.csv")).unwrap();
         assert_eq!(read_csv(&dir.path().join("m.csv")).unwrap()[0].flip, 0.25);
     }

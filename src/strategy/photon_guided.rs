@@ -37,7 +37,9 @@
 //!   of the *product* f_r(ωo, ω_p) ΔΦ_p — the paper's ΔΦ_r = f_r · ΔΦ_i of §4 with f_r no
 //!   longer constant. Cells stay cosine-warped and uniform inside, so a lobe narrower than a
 //!   cell is sampled no better than the cell; ε keeps every direction possible.
-//! - `max_depth`, `rr_depth`, `direct`: as for `path`.
+//! - `max_depth`, `rr_depth`, `direct`, `light_selection`, `sphere_light_sampling`: as for
+//!   `path` (light sampling is the same next-event estimation; its MIS weight uses the guided
+//!   pdf as the other strategy).
 //!
 //! Which vertices are guided: Lambertian surfaces (the paper's "diffuse surfaces"; "The photon
 //! map has only been incorporated in the importance sampling algorithm for ideal diffuse
@@ -47,11 +49,12 @@
 //! surface facing the same way (stored normal · n > 0), so light on the other side of a thin
 //! wall never steers the pdf.
 
-use super::path::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, trace};
+use super::path::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, light_sampling_params, trace};
 use super::{Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::error::{Error, Result};
 use crate::film::Film;
+use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::photon::{CausticStorage, KdPoint, KdTree, Neighbour, Photon, TraceParams, trace_photons};
 use crate::resources;
 use crate::sampling::Rng;
@@ -80,6 +83,8 @@ pub struct PhotonGuidedParams {
     pub rr_depth: u32,
     pub roulette: Roulette,
     pub direct: Direct,
+    pub light_selection: LightSelection,
+    pub sphere_light_sampling: SphereSampling,
 }
 
 impl Default for PhotonGuidedParams {
@@ -97,6 +102,8 @@ impl Default for PhotonGuidedParams {
             rr_depth: 3,
             roulette: Roulette::Albedo,
             direct: Direct::Mis,
+            light_selection: LightSelection::Power,
+            sphere_light_sampling: SphereSampling::Area,
         }
     }
 }
@@ -169,6 +176,14 @@ impl PhotonGuided {
         Ok(Self { params, map: None })
     }
 
+    /// The light sampling options of next-event estimation.
+    pub fn light_sampling(&self) -> LightSampling {
+        LightSampling {
+            selection: self.params.light_selection,
+            sphere: self.params.sphere_light_sampling,
+        }
+    }
+
     /// The photons built by `prepare`, if any, in their kd-tree.
     pub fn map(&self) -> Option<&KdTree<GuidePhoton>> {
         self.map.as_ref()
@@ -219,7 +234,7 @@ impl Strategy for PhotonGuided {
 
     fn params(&self) -> Vec<(&'static str, String)> {
         let p = &self.params;
-        vec![
+        let mut params = vec![
             ("photons", p.photons.to_string()),
             ("nearest", p.nearest.to_string()),
             ("grid", format!("{}x{}", p.grid[0], p.grid[1])),
@@ -232,7 +247,9 @@ impl Strategy for PhotonGuided {
             ("rr_depth", p.rr_depth.to_string()),
             ("roulette", format!("{:?}", p.roulette).to_lowercase()),
             ("direct", format!("{:?}", p.direct).to_lowercase()),
-        ]
+        ];
+        params.extend(light_sampling_params(self.light_sampling()));
+        params
     }
 
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
@@ -254,6 +271,7 @@ impl Strategy for PhotonGuided {
             rr_depth: p.rr_depth,
             roulette: p.roulette,
             direct: p.direct,
+            lights: self.light_sampling(),
         };
         let sampler = GridSampler { map, params: p };
         render_pixels(scene, seed, samples, film, |ray, rng| {
@@ -414,6 +432,38 @@ mod tests {
             bsdf,
             Vec3::new(0.5, -0.1, 0.86).normalize(),
         )
+    }
+
+    /// The light sampling options change next-event estimation only: the photon map that
+    /// guiding builds its pdfs from (emission ∝ power, as Jensen's photons) is the same photon
+    /// for photon with `light_selection = "local"` and `sphere_light_sampling = "cone"`.
+    #[test]
+    fn light_sampling_options_leave_the_photon_map_unchanged() {
+        let scene = {
+            let mut b = crate::photon::test_scenes::SceneBuilder::new();
+            let grey = b.lambertian(Vec3::splat(0.6));
+            b.closed_box(grey, Vec3::splat(4.0));
+            b.build()
+        };
+        let map = |light_selection, sphere_light_sampling| {
+            let mut g = PhotonGuided::new(PhotonGuidedParams {
+                photons: 2000,
+                light_selection,
+                sphere_light_sampling,
+                ..PhotonGuidedParams::default()
+            })
+            .unwrap();
+            g.prepare(&scene, 4).unwrap();
+            g.map()
+                .unwrap()
+                .items()
+                .iter()
+                .map(|p| (p.position, p.direction, p.flux))
+                .collect::<Vec<_>>()
+        };
+        let power = map(LightSelection::Power, SphereSampling::Area);
+        assert_eq!(power.len(), 2000);
+        assert_eq!(power, map(LightSelection::Local, SphereSampling::Cone));
     }
 
     /// The guided sampler at a glossy vertex (product grid, with and without the BSDF mixture)

@@ -57,6 +57,9 @@
 //!   gather in M × N polar strata (M ≈ √(G/π), N = G/M) and stores Ward & Heckbert's 1992
 //!   rotational and translational irradiance gradients, which the interpolation then uses.
 //!   Absent means a final gather at every camera sample.
+//! - `light_selection` (`"power"`), `sphere_light_sampling` (`"area"`): the light sampling of
+//!   the direct term (at x and at secondary gathers), as for `path` ([`LightSelection`],
+//!   [`SphereSampling`]).
 //!
 //! **Decision: a deterministic pre-pass fills the irradiance cache.** Ward fills the cache
 //! lazily while rendering; filled by parallel threads in a timing-dependent order, the records
@@ -74,12 +77,13 @@
 //! (`cache_misses`). A record's gather is the final gather's (its own `gather_rays`
 //! cosine-distributed rays, secondary gathers for short ones), E = π/G Σ L_j.
 
-use super::path::{BsdfSampling, Direct, estimate_direct};
+use super::path::{BsdfSampling, Direct, estimate_direct, light_sampling_params, receiver};
 use super::{Figure, Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::error::{Error, Result};
 use crate::film::{Film, Image};
 use crate::geometry::{Ray, spawn_ray};
+use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::photon::irradiance_cache::{CacheRecord, Gradients, IrradianceCache, PolarStrata, gradients};
 use crate::photon::{
     CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
@@ -167,6 +171,8 @@ pub struct PhotonMapParams {
     pub max_depth: u32,
     pub precomputed_irradiance: Option<Precomputed>,
     pub irradiance_cache: Option<IrradianceCaching>,
+    pub light_selection: LightSelection,
+    pub sphere_light_sampling: SphereSampling,
 }
 
 impl Default for PhotonMapParams {
@@ -182,6 +188,18 @@ impl Default for PhotonMapParams {
             max_depth: 16,
             precomputed_irradiance: None,
             irradiance_cache: None,
+            light_selection: LightSelection::Power,
+            sphere_light_sampling: SphereSampling::Area,
+        }
+    }
+}
+
+impl PhotonMapParams {
+    /// The light sampling options of the direct term.
+    pub fn light_sampling(&self) -> LightSampling {
+        LightSampling {
+            selection: self.light_selection,
+            sphere: self.sphere_light_sampling,
         }
     }
 }
@@ -437,6 +455,7 @@ impl Strategy for PhotonMapStrategy {
             ("irradiance_cache_gather_rays", rays),
             ("irradiance_cache_gradients", gradients),
         ]);
+        params.extend(light_sampling_params(p.light_sampling()));
         params
     }
 
@@ -766,7 +785,23 @@ impl Renderer<'_> {
         let scene = self.scene;
         let wo = hit.frame.to_local(wo_world);
         let sampler = BsdfSampling::Importance;
-        let direct = estimate_direct(scene, hit, bsdf, wo, rng, Direct::Nee, (&sampler, &()), &mut ());
+        let mut weights = None;
+        let lights = self
+            .params
+            .light_sampling()
+            .at(scene, hit.p, || receiver(hit, bsdf, wo), &mut weights);
+        let light_choice = (&lights, &weights);
+        let direct = estimate_direct(
+            scene,
+            hit,
+            bsdf,
+            wo,
+            rng,
+            Direct::Nee,
+            light_choice,
+            (&sampler, &()),
+            &mut (),
+        );
         c.caustic_estimates += u64::from(!self.maps.caustic.is_empty());
         let caustic = self.map_radiance(&self.maps.caustic, &self.maps.caustic_estimate, hit, bsdf, wo_world);
         let g = if primary {
