@@ -91,6 +91,8 @@ pub mod stream {
     pub const CHAIN: u64 = 5;
     /// Importon path i of `mps`'s importance normalisation: `[IMPORTON, i, 0]`.
     pub const IMPORTON: u64 = 6;
+    /// Area probes of the importon density estimates of Metropolis chain c: `[IMPORTON_PROBE, c, 0]`.
+    pub const IMPORTON_PROBE: u64 = 7;
 }
 
 /// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel

@@ -90,8 +90,7 @@ use crate::photon::{
 };
 use crate::report::photons::{GATHER_SEES_PNG, IRRADIANCE_PNG, PRECOMPUTED_PNG, visible_pixels};
 use crate::resources;
-use crate::sampling::Rng;
-use crate::sampling::sample_cosine_hemisphere;
+use crate::sampling::{Rng, latin_hypercube, sample_cosine_hemisphere};
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -715,26 +714,6 @@ fn side_normal(hit: &SurfaceHit, w: Vec3) -> Vec3 {
     } else {
         -hit.frame.n
     }
-}
-
-/// A stratified 2-D point set of `n` points (Latin hypercube: each coordinate hits each of
-/// its n strata once, each point is uniform on [0, 1)²).
-fn latin_hypercube(n: usize, rng: &mut Rng) -> Vec<Vec2> {
-    let mut perm: Vec<u32> = (0..n as u32).collect();
-    for i in (1..n).rev() {
-        let j = ((rng.uniform() * (i + 1) as f32) as usize).min(i);
-        perm.swap(i, j);
-    }
-    let inv = 1.0 / n as f32;
-    (0..n)
-        .map(|i| {
-            let u = rng.uniform2();
-            Vec2::new(
-                ((i as f32 + u.x) * inv).min(1.0 - f32::EPSILON),
-                ((perm[i] as f32 + u.y) * inv).min(1.0 - f32::EPSILON),
-            )
-        })
-        .collect()
 }
 
 impl Renderer<'_> {
