@@ -269,9 +269,11 @@ fn load_cell(cell: &Path) -> Option<Vec<Row>> {
     rows.iter().all(|r| cell.join(&r.image).exists()).then_some(rows)
 }
 
-/// Renders a cell into `<cells>/.tmp-<hash>-<pid>/` and renames it to `<cells>/<hash>/`.
+/// Renders a cell into `<cells>/.tmp-<hash>-<pid>@<host>/` and renames it to `<cells>/<hash>/`.
+/// The name itself names the writer, so a process killed between creating the directory and
+/// writing its [`OWNER`] file still leaves a temporary the next run can attribute.
 fn store_cell(cells: &Path, hash: &str, render: impl FnOnce(&Path) -> Result<Vec<Row>>) -> Result<Vec<Row>> {
-    let tmp = cells.join(format!(".tmp-{hash}-{}", std::process::id()));
+    let tmp = cells.join(format!(".tmp-{hash}-{}@{}", std::process::id(), host_name()));
     let _ = std::fs::remove_dir_all(&tmp);
     create_owned_dir(&tmp, "images")?;
     let result = render(&tmp).and_then(|rows| {
@@ -309,15 +311,29 @@ fn create_owned_dir(dir: &Path, sub: &str) -> Result<()> {
     std::fs::write(dir.join(OWNER), owner).context(dir.join(OWNER).display())
 }
 
+/// The writer `<host> <pid>` a cell temporary's name `.tmp-<hash>-<pid>@<host>` gives.
+fn owner_in_name(dir: &Path) -> Option<String> {
+    let name = dir.file_name()?.to_str()?.strip_prefix(".tmp-")?;
+    let (left, host) = name.split_once('@')?;
+    let (_, pid) = left.rsplit_once('-')?;
+    Some(format!("{host} {pid}"))
+}
+
 /// Is the temporary directory `dir` an orphan: written by a process of this host that no longer
-/// runs? Without an owner file (killed between creating the directory and writing the file) it
-/// is one once a day old. Where processes cannot be looked up (no `/proc`), nothing is.
+/// runs? The writer is the one its owner file names, else (no file, or an empty one) the one
+/// its name names (cell temporaries); with neither (a run directory killed between its creation and its owner
+/// file) it is one once a day old. Where processes cannot be looked up (no `/proc`), nothing
+/// is.
 fn is_orphan(dir: &Path, host: &str) -> bool {
     if !Path::new("/proc/self").exists() {
         return false;
     }
-    match std::fs::read_to_string(dir.join(OWNER)) {
-        Ok(owner) => match owner.trim().rsplit_once(' ') {
+    // An owner file killed while being written is empty: the name decides then.
+    let written = std::fs::read_to_string(dir.join(OWNER))
+        .ok()
+        .filter(|o| !o.trim().is_empty());
+    match written.or_else(|| owner_in_name(dir)) {
+        Some(owner) => match owner.trim().rsplit_once(' ') {
             Some((h, pid)) => {
                 h == host
                     && pid
@@ -326,7 +342,7 @@ fn is_orphan(dir: &Path, host: &str) -> bool {
             }
             None => false,
         },
-        Err(_) => std::fs::metadata(dir)
+        None => std::fs::metadata(dir)
             .and_then(|m| m.modified())
             .is_ok_and(|t| t.elapsed().is_ok_and(|age| age.as_secs() > 24 * 3600)),
     }
