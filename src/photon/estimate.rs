@@ -130,9 +130,32 @@ impl PhotonMap {
         self.estimate(x, n, params, f_r)
     }
 
+    /// Irradiance as [`PhotonMap::irradiance`], from the photons for which `also` holds as well
+    /// (tested only on photons near enough to enter the estimate).
+    pub fn irradiance_where(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        params: &EstimateParams,
+        also: impl Fn(&Photon) -> bool,
+    ) -> Estimate {
+        self.estimate_where(x, n, params, |_| Vec3::ONE, also)
+    }
+
     fn estimate(&self, x: Vec3, n: Vec3, params: &EstimateParams, f_r: impl Fn(Vec3) -> Vec3) -> Estimate {
+        self.estimate_where(x, n, params, f_r, |_| true)
+    }
+
+    fn estimate_where(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        params: &EstimateParams,
+        f_r: impl Fn(Vec3) -> Vec3,
+        also: impl Fn(&Photon) -> bool,
+    ) -> Estimate {
         let mut found = NEIGHBOURS.with(|b| std::mem::take(&mut *b.borrow_mut()));
-        let accept = |p: &Photon| p.normal().dot(n) >= params.normal_dot && p.direction().dot(n) > 0.0;
+        let accept = |p: &Photon| p.normal().dot(n) >= params.normal_dot && p.direction().dot(n) > 0.0 && also(p);
         self.tree()
             .k_nearest_into(x, params.nearest, params.max_radius, accept, &mut found);
         let result = self.density(&found, params, f_r);

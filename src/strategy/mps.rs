@@ -37,10 +37,12 @@
 //!   surface inside its ball; the textbook A = π r_k² overstates it within r_k of a surface's
 //!   edge, so photons there weighed too much (`rooms`, 3 M iterations: 3.1 % too bright). The
 //!   default measures A with `importon_edge_probes` rays ([`surface_area_in_ball`]; 1.1 %,
-//!   0.8 % with 16 M importons); `importon_edge_probes = 0` keeps π r_k².
+//!   0.8 % with 16 M importons); `importon_edge_probes = 0` keeps π r_k². Importance also
+//!   leaks through thin walls, as the paper says of importons (§3.1); `importon_in_sight`
+//!   (default) counts only importons in sight of the photon ([`DensityRule`]).
 //!
 //! Parameters: `mutations` (N, default 200 000), `photon_power`, `importons` (1 000 000),
-//! `importon_nearest` (64), `importon_edge_probes` (16); the chain's ([`MetropolisParams`]: `proposals`, `max_depth`,
+//! `importon_nearest` (64), `importon_edge_probes` (16), `importon_in_sight` (true); the chain's ([`MetropolisParams`]: `proposals`, `max_depth`,
 //! `b_samples`, `chains`, `pm_gamma_deg`, `lens_r1_px`, `lens_r2_fraction`, `caustic_theta1`,
 //! `caustic_theta2`) and the final gather's ([`PhotonMapParams`]: `nearest`,
 //! `caustic_nearest`, `max_radius`, `gather_rays`, `secondary_gather_rays`, `short_gather`,
@@ -113,6 +115,9 @@ pub struct MpsParams {
     /// ([`surface_area_in_ball`]); 0 divides by the whole disc π r² (the estimate before
     /// 2026-11-23, biased near surface edges).
     pub importon_edge_probes: usize,
+    /// Count only importons in sight of the photon ([`DensityRule::sight_lift`]): importance
+    /// does not leak through thin walls.
+    pub importon_in_sight: bool,
 }
 
 impl Default for MpsParams {
@@ -123,6 +128,7 @@ impl Default for MpsParams {
             importons: 1_000_000,
             importon_nearest: 64,
             importon_edge_probes: 16,
+            importon_in_sight: true,
         }
     }
 }
@@ -134,6 +140,7 @@ const MPS_KEYS: &[&str] = &[
     "importons",
     "importon_nearest",
     "importon_edge_probes",
+    "importon_in_sight",
 ];
 
 pub struct Mps {
@@ -227,6 +234,7 @@ impl Strategy for Mps {
             ("importons", p.importons.to_string()),
             ("importon_nearest", p.importon_nearest.to_string()),
             ("importon_edge_probes", p.importon_edge_probes.to_string()),
+            ("importon_in_sight", p.importon_in_sight.to_string()),
         ];
         out.extend(self.chain.describe());
         out.extend(
@@ -254,8 +262,12 @@ impl Strategy for Mps {
                 ..EstimateParams::default()
             };
             let max_edges = self.chain.max_depth as usize + 1;
-            let probes = self.params.importon_edge_probes;
-            Importons::trace(scene, self.params.importons, max_edges, estimate, probes, seed)
+            let rule = DensityRule {
+                edge_probes: self.params.importon_edge_probes,
+                // ε: far above float noise, far below any wall (9e-5 m on `rooms`).
+                sight_lift: self.params.importon_in_sight.then_some(2e-4 * estimate.max_radius),
+            };
+            Importons::trace(scene, self.params.importons, max_edges, estimate, rule, seed)
         });
         if importons.is_some() {
             phases.push(Phase {
@@ -426,8 +438,39 @@ pub struct Importons {
     global: PhotonMap,
     estimate: EstimateParams,
     paths: u64,
-    /// Probe rays measuring the surface area inside an estimate's disc (0: the full disc π r²).
-    edge_probes: usize,
+    rule: DensityRule,
+}
+
+/// How [`Importons`] turn the importons near a point into 1 / q_s (see
+/// [`Importons::inverse_density`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DensityRule {
+    /// Probe rays measuring the surface area inside the estimate's disc (0: the whole disc
+    /// π r²): [`surface_area_in_ball`].
+    pub edge_probes: usize,
+    /// `Some(ε)`: count only importons, and area, in sight of the point, so that importance
+    /// does not leak through a thin wall. `None`: count everything in the ball, as a photon
+    /// estimate does. In sight: the segment between the two points, each lifted along its
+    /// normal by ε + d / 4 (d their distance), is free. The d / 4 carries the segment over
+    /// the surface itself where it curves (on a sphere of radius R a chord of length d sinks
+    /// d² / 8R below its ends, less than d / 4 for d < 2R) and over anything lower than that;
+    /// a wall stops it.
+    pub sight_lift: Option<f32>,
+}
+
+impl DensityRule {
+    fn in_sight(&self, scene: &Scene, p: Vec3, n: Vec3, q: Vec3, n_q: Vec3) -> bool {
+        let Some(eps) = self.sight_lift else { return true };
+        let lift = eps + 0.25 * p.distance(q);
+        let (a, b) = (p + n * lift, q + n_q * lift);
+        let len = a.distance(b);
+        len <= lift
+            || scene.unoccluded(&Ray {
+                o: a,
+                d: (b - a) / len,
+                t_max: len,
+            })
+    }
 }
 
 impl Importons {
@@ -440,7 +483,7 @@ impl Importons {
         paths: u64,
         max_edges: usize,
         estimate: EstimateParams,
-        edge_probes: usize,
+        rule: DensityRule,
         seed: u64,
     ) -> Self {
         const BLOCK: u64 = 4096;
@@ -482,7 +525,7 @@ impl Importons {
             global: PhotonMap::build(global),
             estimate,
             paths,
-            edge_probes,
+            rule,
         }
     }
 
@@ -497,6 +540,11 @@ impl Importons {
     /// only inside a flat surface; within r of an edge or a corner the disc reaches past the
     /// surface and π r² overstates A, so 1 / q_s comes out too large there (`rooms`: +3 %
     /// luminance). With `edge_probes` > 0, A is measured instead: [`surface_area_in_ball`].
+    ///
+    /// Importance leaks through walls as photon power does [Fan et al. 2005, §3.1]: the ball
+    /// around a point of the floor beside a thin wall holds importons from the floor behind it,
+    /// where the gather may look far more (or less) often. With a `sight_lift` the count and
+    /// the area both keep only what is in sight of `p`, so the estimate stays on its side.
     fn inverse_density(&self, scene: &Scene, map: Map, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<f64> {
         let m = match map {
             Map::Global => &self.global,
@@ -505,15 +553,18 @@ impl Importons {
         if m.is_empty() {
             return None;
         }
-        let est = m.irradiance(p, n, &self.estimate);
+        let rule = &self.rule;
+        let est = m.irradiance_where(p, n, &self.estimate, |imp| {
+            rule.in_sight(scene, p, n, imp.position(), imp.normal())
+        });
         if est.photons == 0 || est.radius <= 0.0 {
             return None;
         }
         let r = est.radius;
-        let area = if self.edge_probes == 0 {
+        let area = if rule.edge_probes == 0 {
             std::f64::consts::PI * (r as f64).powi(2)
         } else {
-            surface_area_in_ball(scene, p, n, r, self.estimate.normal_dot, self.edge_probes, rng)
+            surface_area_in_ball(scene, p, n, r, self.estimate.normal_dot, rule, rng)
         };
         (area > 0.0).then(|| area * self.paths as f64 / est.photons as f64)
     }
@@ -527,18 +578,20 @@ impl Importons {
 /// 1 / (n_y · n), the Jacobian from the disc's projected area to the surface's. Exact in
 /// expectation for any surface seen from above as a height field over the disc: a flat
 /// surface's open edges and corners, walls standing on it (nothing under them is seen),
-/// curved surfaces. What it cannot know is where a surface is seen from above yet never
-/// reached by importons (the floor under a wall box without a bottom face), and importons the
-/// k-nearest search counts behind an occluder (the floor on the far side of a thin wall).
+/// curved surfaces. With the rule's `sight_lift` a hit also has to be in sight of `p` (the
+/// floor behind a thin wall does not count). What it cannot know is where a surface is seen
+/// from above yet never reached by importons (the floor under a wall box without a bottom
+/// face).
 pub fn surface_area_in_ball(
     scene: &Scene,
     p: Vec3,
     n: Vec3,
     r: f32,
     normal_dot: f32,
-    probes: usize,
+    rule: &DensityRule,
     rng: &mut Rng,
 ) -> f64 {
+    let probes = rule.edge_probes;
     let frame = Frame::from_normal(n);
     let mut sum = 0.0f64;
     for u in latin_hypercube(probes, rng) {
@@ -554,6 +607,7 @@ pub fn surface_area_in_ball(
         if cos >= normal_dot.max(1e-3)
             && hit.p.distance_squared(p) <= r * r
             && scene.bsdf(&hit).kind() == SurfaceKind::Diffuse
+            && rule.in_sight(scene, p, n, hit.p, n_y)
         {
             sum += 1.0 / cos as f64;
         }
@@ -733,14 +787,21 @@ mod tests {
             ("corner", Vec3::ZERO, Vec3::Y, r, disc / 4.0),
             ("sphere", top, Vec3::Y, r_sphere, pi * (r_sphere as f64).powi(2)),
         ];
-        for (i, (name, p, n, r, expected)) in cases.into_iter().enumerate() {
-            let mut rng = Rng::for_task(1, [i as u64, 0, 0]);
-            let (mean, err) = mean_and_error(4000, |_| surface_area_in_ball(&scene, p, n, r, 0.5, 16, &mut rng));
-            let z = (mean - expected) / err.max(1e-12);
-            assert!(
-                z.abs() < 4.0 || (mean / expected - 1.0).abs() < 1e-5,
-                "{name}: mean {mean:.6} ± {err:.2e}, expected {expected:.6} (z = {z:.1})"
-            );
+        // In sight or not makes no difference here: nothing stands on these surfaces.
+        for sight_lift in [None, Some(1e-5)] {
+            let rule = DensityRule {
+                edge_probes: 16,
+                sight_lift,
+            };
+            for (i, (name, p, n, r, expected)) in cases.into_iter().enumerate() {
+                let mut rng = Rng::for_task(1, [i as u64, 0, 0]);
+                let (mean, err) = mean_and_error(4000, |_| surface_area_in_ball(&scene, p, n, r, 0.5, &rule, &mut rng));
+                let z = (mean - expected) / err.max(1e-12);
+                assert!(
+                    z.abs() < 4.0 || (mean / expected - 1.0).abs() < 1e-5,
+                    "{name} ({sight_lift:?}): mean {mean:.6} ± {err:.2e}, expected {expected:.6} (z = {z:.1})"
+                );
+            }
         }
     }
 
@@ -761,7 +822,10 @@ mod tests {
                 ..EstimateParams::default()
             },
             paths,
-            edge_probes,
+            rule: DensityRule {
+                edge_probes,
+                sight_lift: None,
+            },
         }
     }
 
@@ -797,6 +861,71 @@ mod tests {
                         "{name} without probes: mean {mean:.3}, expected ≈ {bias}"
                     );
                 }
+            }
+        }
+    }
+
+    /// A floor [0, 2] × {0} × [0, 1] facing +y split by a thin wall (two quads, at x = 1 and
+    /// x = 1.01, 0.5 high) standing on it, a light far above.
+    fn walled_floor_scene() -> Scene {
+        let mut b = SceneBuilder::new();
+        let m = b.lambertian(Vec3::splat(0.5));
+        b.quad(Vec3::ZERO, Vec3::Z, Vec3::X * 2.0, m, None);
+        b.quad(Vec3::X, Vec3::Y * 0.5, Vec3::Z, m, None);
+        b.quad(Vec3::new(1.01, 0.0, 0.0), Vec3::Z, Vec3::Y * 0.5, m, None);
+        b.quad(Vec3::new(0.0, 10.0, 0.0), Vec3::X, Vec3::Z, m, Some(Vec3::ONE));
+        b.build()
+    }
+
+    #[test]
+    fn importon_density_in_sight_does_not_leak_through_a_thin_wall() {
+        // Importons 10× denser behind the wall than in front of it; a photon 2 cm in front of
+        // the wall, whose 16-nearest disc (r ≈ 0.05) reaches behind it.
+        let scene = walled_floor_scene();
+        let (front, behind) = (1000u64, 10_000u64);
+        let paths = front + behind;
+        let p = Vec3::new(0.98, 0.0, 0.5);
+        let draw = |rule: DensityRule, rng: &mut Rng| {
+            let global = (0..paths)
+                .map(|i| {
+                    let u = rng.uniform2();
+                    let x = if i < front { u.x } else { 1.01 + 0.99 * u.x };
+                    Photon::new(Vec3::new(x, 0.0, u.y), Vec3::ONE, Vec3::Y, Vec3::Y, 0)
+                })
+                .collect();
+            let imp = Importons {
+                caustic: PhotonMap::build(Vec::new()),
+                global: PhotonMap::build(global),
+                estimate: EstimateParams {
+                    nearest: 16,
+                    ..EstimateParams::default()
+                },
+                paths,
+                rule,
+            };
+            imp.inverse_density(&scene, Map::Global, p, Vec3::Y, rng).unwrap()
+        };
+        // In front of the wall q_s = front / paths per unit area.
+        let expected = paths as f64 / front as f64 * front as f64 / (front + 1) as f64;
+        for sight_lift in [Some(1e-5), None] {
+            let rule = DensityRule {
+                edge_probes: 16,
+                sight_lift,
+            };
+            let mut rng = Rng::for_task(3, [sight_lift.is_some() as u64, 0, 0]);
+            let (mean, err) = mean_and_error(1000, |_| draw(rule, &mut rng));
+            let z = (mean - expected) / err;
+            if sight_lift.is_some() {
+                assert!(
+                    z.abs() < 4.0,
+                    "in sight: mean {mean:.3} ± {err:.3}, expected {expected:.3}, z = {z:.1}"
+                );
+            } else {
+                // Counting the dense importons behind the wall makes the photon far too light.
+                assert!(
+                    mean < 0.7 * expected,
+                    "through the wall: mean {mean:.3}, expected {expected:.3}"
+                );
             }
         }
     }
