@@ -805,28 +805,33 @@ mod tests {
         }
     }
 
-    /// Uniform importons on the unit square, `paths` of them (density q_s = 1 per path and
-    /// unit area), with their k-nearest estimate.
-    fn square_importons(paths: u64, edge_probes: usize, rng: &mut Rng) -> Importons {
-        let global = (0..paths)
-            .map(|_| {
-                let u = rng.uniform2();
-                Photon::new(Vec3::new(u.x, 0.0, u.y), Vec3::ONE, Vec3::Y, Vec3::Y, 0)
-            })
+    /// Global-map importons at `positions` on the floor y = 0 (arriving from above), one per
+    /// path, with 16-nearest estimates under `rule`.
+    fn floor_importons(positions: impl Iterator<Item = (f32, f32)>, rule: DensityRule) -> Importons {
+        let global: Vec<Photon> = positions
+            .map(|(x, z)| Photon::new(Vec3::new(x, 0.0, z), Vec3::ONE, Vec3::Y, Vec3::Y, 0))
             .collect();
         Importons {
             caustic: PhotonMap::build(Vec::new()),
+            paths: global.len() as u64,
             global: PhotonMap::build(global),
             estimate: EstimateParams {
                 nearest: 16,
                 ..EstimateParams::default()
             },
-            paths,
-            rule: DensityRule {
-                edge_probes,
-                sight_lift: None,
-            },
+            rule,
         }
+    }
+
+    /// Uniform importons on the unit square, `paths` of them (density q_s = 1 per path and
+    /// unit area).
+    fn square_importons(paths: u64, edge_probes: usize, rng: &mut Rng) -> Importons {
+        let positions: Vec<(f32, f32)> = (0..paths).map(|_| rng.uniform2().into()).collect();
+        let rule = DensityRule {
+            edge_probes,
+            sight_lift: None,
+        };
+        floor_importons(positions.into_iter(), rule)
     }
 
     #[test]
@@ -886,23 +891,13 @@ mod tests {
         let paths = front + behind;
         let p = Vec3::new(0.98, 0.0, 0.5);
         let draw = |rule: DensityRule, rng: &mut Rng| {
-            let global = (0..paths)
+            let positions: Vec<(f32, f32)> = (0..paths)
                 .map(|i| {
                     let u = rng.uniform2();
-                    let x = if i < front { u.x } else { 1.01 + 0.99 * u.x };
-                    Photon::new(Vec3::new(x, 0.0, u.y), Vec3::ONE, Vec3::Y, Vec3::Y, 0)
+                    (if i < front { u.x } else { 1.01 + 0.99 * u.x }, u.y)
                 })
                 .collect();
-            let imp = Importons {
-                caustic: PhotonMap::build(Vec::new()),
-                global: PhotonMap::build(global),
-                estimate: EstimateParams {
-                    nearest: 16,
-                    ..EstimateParams::default()
-                },
-                paths,
-                rule,
-            };
+            let imp = floor_importons(positions.into_iter(), rule);
             imp.inverse_density(&scene, Map::Global, p, Vec3::Y, rng).unwrap()
         };
         // In front of the wall q_s = front / paths per unit area.
