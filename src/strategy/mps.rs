@@ -572,7 +572,7 @@ impl Importons {
 
 /// An unbiased estimate of the area of the surfaces inside the ball of radius `r` around `p`
 /// that a density estimate on the side of `n` reads: diffuse surfaces whose normal, turned to
-/// face the probe, passes the importons' normal test (n_y · n ≥ `normal_dot`). `probes` points
+/// face the probe, passes the importons' normal test (n_y · n ≥ `normal_dot`). `rule.edge_probes` points
 /// uniform (Latin-hypercube stratified) on the tangent disc of radius r each cast a ray along
 /// −n from height r above it, over 2r; a first hit y inside the ball on such a surface counts
 /// 1 / (n_y · n), the Jacobian from the disc's projected area to the surface's. Exact in
