@@ -40,6 +40,9 @@ fn photon_guided_agrees_with_path_on_cornell_empty() {
         "photons = 20000",
         "photons = 20000\nempty_cells = \"shared\"",
         "photons = 20000\nbsdf_mixture = 0.25",
+        "photons = 20000\nprecomputed_pdfs = { every = 4 }",
+        // Any record, whatever its normal: a poor pdf, but still one over the whole hemisphere.
+        "photons = 20000\nprecomputed_pdfs = { every = 16, normal_dot = -1.0 }",
     ] {
         let (m, se) = mean_and_se(&scene, "photon_guided", params, 8, 32);
         let z = (m - m0).abs() / (se * se + se0 * se0).sqrt();
@@ -122,6 +125,7 @@ fn albedo_roulette_keeps_the_variance_reduction_of_guiding() {
     let sampler = GridSampler {
         map: guided.map().unwrap(),
         params: &params,
+        records: None,
     };
     let walk = |roulette| Walk {
         max_depth: 16,

@@ -118,6 +118,33 @@ pub struct Precomputed {
     pub normal_dot: f32,
 }
 
+impl Precomputed {
+    /// Checks `every` and `normal_dot`; `field` names the table in the message.
+    pub fn validate(&self, field: &str) -> Result<()> {
+        if self.every == 0 || self.every > 1_000_000 {
+            return Err(Error::new(format!(
+                "{field}.every: expected 1..=1000000, got {}",
+                self.every
+            )));
+        }
+        if !(-1.0..=1.0).contains(&self.normal_dot) {
+            return Err(Error::new(format!(
+                "{field}.normal_dot: expected a cosine in [-1, 1], got {}",
+                self.normal_dot
+            )));
+        }
+        Ok(())
+    }
+
+    /// The `(every, normal_dot)` columns of a result row ("none" when absent).
+    pub fn columns(pre: Option<&Self>) -> (String, String) {
+        match pre {
+            Some(p) => (p.every.to_string(), p.normal_dot.to_string()),
+            None => ("none".to_string(), "none".to_string()),
+        }
+    }
+}
+
 impl Default for Precomputed {
     fn default() -> Self {
         Self {
@@ -241,18 +268,7 @@ impl PhotonMapParams {
             return bad("max_depth: expected 0..=1024", self.max_depth.to_string());
         }
         if let Some(p) = &self.precomputed_irradiance {
-            if p.every == 0 || p.every > 1_000_000 {
-                return bad(
-                    "precomputed_irradiance.every: expected 1..=1000000",
-                    p.every.to_string(),
-                );
-            }
-            if !(-1.0..=1.0).contains(&p.normal_dot) {
-                return bad(
-                    "precomputed_irradiance.normal_dot: expected a cosine in [-1, 1]",
-                    p.normal_dot.to_string(),
-                );
-            }
+            p.validate("precomputed_irradiance")?;
         }
         if let Some(ic) = &self.irradiance_cache {
             if !(ic.error.is_finite() && ic.error > 0.0 && ic.error <= 10.0) {
@@ -420,10 +436,7 @@ impl Strategy for PhotonMapStrategy {
     fn params(&self) -> Vec<(&'static str, String)> {
         let p = &self.params;
         let opt = |v: Option<f32>| v.map_or("auto".to_string(), |v| v.to_string());
-        let (every, normal_dot) = match &p.precomputed_irradiance {
-            Some(pre) => (pre.every.to_string(), pre.normal_dot.to_string()),
-            None => ("none".to_string(), "none".to_string()),
-        };
+        let (every, normal_dot) = Precomputed::columns(p.precomputed_irradiance.as_ref());
         let mut params = vec![
             ("photons", p.photons.to_string()),
             ("nearest", p.nearest.to_string()),
