@@ -100,6 +100,22 @@ enum Command {
         #[arg(long)]
         photon_scale: bool,
     },
+    /// Measure each photon-map strategy's map where its final gather reads it: RMS relative
+    /// error against path-traced radiance at gather-ray hits, for every scene, strategy and
+    /// seed of an experiment (a CSV table on stdout; nothing is written to results/).
+    MapError {
+        /// The experiment file, e.g. experiments/mps05.toml.
+        experiment: PathBuf,
+        /// Gather-ray hits to probe per scene.
+        #[arg(long, default_value_t = 2000)]
+        probes: usize,
+        /// Path-traced samples per probe for its reference radiance.
+        #[arg(long, default_value_t = 1024)]
+        probe_spp: u32,
+        /// Seed of the probes (the strategies use the experiment's seeds).
+        #[arg(long, default_value_t = 0)]
+        probe_seed: u64,
+    },
     /// Redraw every plot of a run directory from its metrics.csv alone.
     Plot {
         /// A run directory, e.g. results/cornell/<run-id>.
@@ -395,6 +411,25 @@ fn run_command(command: Command) -> Result<Status> {
                 eprintln!("warning: {w}");
             }
             println!("{}", output.display());
+            Ok(Status::Success)
+        }
+        Command::MapError {
+            experiment,
+            probes,
+            probe_spp,
+            probe_seed,
+        } => {
+            if !(1..=1_000_000).contains(&probes) {
+                return Err(Error::new(format!("--probes: expected 1..=1000000, got {probes}")));
+            }
+            if !(2..=1 << 20).contains(&probe_spp) {
+                return Err(Error::new(format!(
+                    "--probe-spp: expected 2..={}, got {probe_spp}",
+                    1 << 20
+                )));
+            }
+            let exp = Experiment::load(&experiment)?;
+            experiment::map_error::run(&exp, probes, probe_spp, probe_seed, &mut std::io::stdout().lock())?;
             Ok(Status::Success)
         }
         Command::List => {

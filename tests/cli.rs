@@ -725,3 +725,56 @@ fn assert_fig1_images_written_and_linked(run: &Path) {
         }
     }
 }
+
+/// `bench map-error` prints one CSV row per photon-map strategy and seed (strategies without a
+/// map are skipped), is the same for any thread count, and refuses bad arguments in one line.
+#[test]
+fn map_error_prints_a_row_per_photon_map_strategy_and_seed() {
+    let p = project();
+    let root = p.path();
+    let exp = format!("{EXPERIMENT}[[strategy]]\nkind = \"photon_map\"\nphotons = 20000\n");
+    std::fs::write(root.join("experiments/tiny.toml"), exp).unwrap();
+    let args = [
+        "map-error",
+        "experiments/tiny.toml",
+        "--probes",
+        "60",
+        "--probe-spp",
+        "16",
+    ];
+    let out = bench(root, &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let table = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = table.lines().collect();
+    assert_eq!(lines.len(), 3, "header and one row per seed: {table}");
+    assert!(lines[0].starts_with("scene,strategy,seed,prep_s,probes,probe_spp,map_rms_rel"));
+    for (seed, line) in lines[1..].iter().enumerate() {
+        let cols: Vec<&str> = line.split(',').collect();
+        assert_eq!(&cols[..3], &["tiny", "photon_map", &seed.to_string()], "{line}");
+        let ratio: f64 = cols[9].parse().unwrap();
+        assert!(ratio > 0.5 && ratio < 2.0, "map mean ratio {ratio}");
+    }
+    let one = bench(root, &[&["--threads", "1"][..], &args[..]].concat());
+    let strip_time = |t: &str| -> Vec<String> {
+        t.lines()
+            .map(|l| {
+                let mut c: Vec<&str> = l.split(',').collect();
+                c.remove(3);
+                c.join(",")
+            })
+            .collect()
+    };
+    assert_eq!(
+        strip_time(&table),
+        strip_time(&String::from_utf8(one.stdout).unwrap()),
+        "same table on one thread"
+    );
+    assert_refused(
+        &bench(root, &["map-error", "experiments/tiny.toml", "--probes", "0"]),
+        &["--probes"],
+    );
+    assert_refused(
+        &bench(root, &["map-error", "experiments/nope.toml"]),
+        &["experiments/nope.toml"],
+    );
+}

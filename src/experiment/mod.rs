@@ -1,6 +1,7 @@
 //! Experiments: the serde model of `experiments/*.toml`, references, and the runner.
 
 pub mod config;
+pub mod map_error;
 pub mod reference;
 pub mod run;
 

@@ -19,7 +19,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::geometry::Ray;
 use crate::sampling::Rng;
-use crate::scene::Scene;
+use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -60,6 +60,15 @@ pub trait Strategy: Send + Sync {
     /// photon distribution images of Fan et al. 2005, Fig. 2; empty without photons.
     fn photons(&self) -> Vec<(Vec3, Vec3)> {
         Vec::new()
+    }
+
+    /// What a final-gather ray reaching the non-delta surface point `hit` reads from the
+    /// strategy's photon maps as the radiance leaving it toward `wo` (world, unit): the
+    /// lookup `bench map-error` measures ([`crate::experiment::map_error`]). `None` for
+    /// strategies without a photon map, or before `prepare`.
+    fn map_lookup(&self, scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Option<Vec3> {
+        let _ = (scene, hit, wo);
+        None
     }
 
     /// Diagnostic images of what `prepare` built (Christensen 1999, Fig. 1: irradiance at the

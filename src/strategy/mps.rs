@@ -63,7 +63,7 @@ use crate::path_space::walk::{extend_eye_to_diffuse, sample_direction, trace_fro
 use crate::path_space::{Vertex, direction, first_diffuse_from_eye, light_throughput, pdf_eye_side};
 use crate::photon::{EstimateParams, Photon, PhotonMap, flags};
 use crate::sampling::{Rng, latin_hypercube, sample_concentric_disk};
-use crate::scene::{Scene, luminance};
+use crate::scene::{Scene, SurfaceHit, luminance};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -297,6 +297,10 @@ impl Strategy for Mps {
 
     fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
         self.gather.render_maps(scene, seed, samples, film);
+    }
+
+    fn map_lookup(&self, scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Option<Vec3> {
+        self.gather.lookup_maps(scene, hit, wo)
     }
 
     fn photons(&self) -> Vec<(Vec3, Vec3)> {

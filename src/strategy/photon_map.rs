@@ -509,6 +509,10 @@ impl Strategy for PhotonMapStrategy {
         out.into_iter().map(|(n, v)| (n.to_string(), v)).collect()
     }
 
+    fn map_lookup(&self, scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Option<Vec3> {
+        self.lookup_maps(scene, hit, wo)
+    }
+
     fn photons(&self) -> Vec<(Vec3, Vec3)> {
         self.maps.as_ref().map_or_else(Vec::new, |m| {
             m.global.photons().iter().map(|p| (p.position(), p.normal())).collect()
@@ -697,6 +701,18 @@ impl PhotonMapStrategy {
     }
 
     /// Renders by final gathering from the maps of the last `prepare` / `build_maps`.
+    /// What a final-gather ray reaching `hit` reads from the maps toward `wo` (no secondary
+    /// gather; [`Strategy::map_lookup`]); `None` before the maps are built.
+    pub fn lookup_maps(&self, scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Option<Vec3> {
+        let maps = self.maps.as_ref()?;
+        let r = Renderer {
+            scene,
+            params: &self.params,
+            maps,
+        };
+        Some(r.lookup(hit, scene.bsdf(hit), wo, &mut PhotonMapCounters::default()))
+    }
+
     pub fn render_maps(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
         let Some(maps) = &self.maps else { return };
         let r = Renderer {
