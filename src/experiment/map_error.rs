@@ -17,7 +17,11 @@
 //! (L̂ − L_ref) / L_ref, the paper's metric taken at the probes; `map_rms_rel_net`, the same with
 //! each probe's reference variance subtracted from its squared error (the map's error against
 //! a noiseless reference, in expectation); `ref_rms_rel`, the references' own relative noise;
-//! `map_mean_ratio`, Σ L̂ / Σ L_ref (bias: energy lost or bled); and the preparation time.
+//! `map_mean_ratio`, Σ L̂ / Σ L_ref (bias: energy lost or bled); the same ratio over the
+//! *interior* probes only, `map_mean_ratio_interior`: those whose ball of radius 5 % of the
+//! scene's diagonal (photon mapping's default search bound) holds a whole flat disc of surface
+//! facing the same way ([`surface_area_in_ball`] with 64 probe rays finds exactly π R²), where
+//! no lookup's disc can reach past an edge; and the preparation time.
 
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
@@ -27,7 +31,9 @@ use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::sampling::Rng;
 use crate::scene::load::load_scene;
 use crate::scene::{Scene, SurfaceHit, luminance};
+use crate::strategy::mps::{DensityRule, surface_area_in_ball};
 use crate::strategy::path::{BsdfSampling, Direct, Roulette, Walk, trace};
+use crate::strategy::photon_map::scene_diagonal;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::io::Write;
@@ -47,7 +53,12 @@ pub struct Probe {
     pub reference: f64,
     /// Variance of `reference` (the sample variance over its paths / their count).
     pub reference_var: f64,
+    /// No surface edge within 5 % of the scene's diagonal (module doc).
+    pub interior: bool,
 }
+
+/// Probe rays of the interior test (module doc).
+const INTERIOR_PROBES: usize = 64;
 
 /// Probes as a final gather draws them (module doc), each path traced with `spp` samples.
 pub fn gather_probes(scene: &Scene, count: usize, spp: u32, seed: u64) -> Result<Vec<Probe>> {
@@ -60,6 +71,11 @@ pub fn gather_probes(scene: &Scene, count: usize, spp: u32, seed: u64) -> Result
             selection: LightSelection::Power,
             sphere: SphereSampling::Cone,
         },
+    };
+    let interior_radius = 0.05 * scene_diagonal(scene);
+    let rule = DensityRule {
+        edge_probes: INTERIOR_PROBES,
+        sight_lift: None,
     };
     let probes: Vec<Option<Probe>> = (0..count as u64)
         .into_par_iter()
@@ -75,11 +91,15 @@ pub fn gather_probes(scene: &Scene, count: usize, spp: u32, seed: u64) -> Result
             let n = spp as f64;
             let mean = sum / n;
             let var = ((sum2 / n - mean * mean) * n / (n - 1.0).max(1.0)).max(0.0) / n;
+            let side = if hit.ng.dot(ray.d) < 0.0 { hit.ng } else { -hit.ng };
+            let area = surface_area_in_ball(scene, hit.p, side, interior_radius, 0.999, &rule, &mut rng);
+            let disc = std::f64::consts::PI * f64::from(interior_radius).powi(2);
             Some(Probe {
                 hit,
                 wo: -ray.d,
                 reference: mean,
                 reference_var: var,
+                interior: (area / disc - 1.0).abs() < 1e-3,
             })
         })
         .collect();
@@ -136,19 +156,27 @@ pub fn map_error(probes: &[Probe], estimate: impl Fn(&Probe) -> f64) -> (f64, f6
     )
 }
 
+/// Σ estimate / Σ reference over `probes`.
+pub fn mean_ratio<'a>(probes: impl Iterator<Item = &'a Probe>, estimate: impl Fn(&Probe) -> f64) -> f64 {
+    let (e, r) = probes.fold((0.0, 0.0), |(e, r), p| (e + estimate(p), r + p.reference));
+    e / r
+}
+
 /// Runs the diagnostic over an experiment: every scene, every strategy with a photon map that
 /// runs on it, every seed; prints one CSV row each to `out`.
 pub fn run(exp: &Experiment, probes: usize, probe_spp: u32, probe_seed: u64, out: &mut impl Write) -> Result<()> {
     let io = |e: std::io::Error| Error::new(format!("writing the table: {e}"));
     writeln!(
         out,
-        "scene,strategy,seed,prep_s,probes,probe_spp,map_rms_rel,map_rms_rel_net,ref_rms_rel,map_mean_ratio"
+        "scene,strategy,seed,prep_s,probes,probe_spp,map_rms_rel,map_rms_rel_net,ref_rms_rel,map_mean_ratio,\
+         interior_probes,map_mean_ratio_interior"
     )
     .map_err(io)?;
     for scene_file in &exp.scenes {
         let scene = load_scene(scene_file)?;
         let start = Instant::now();
         let found = gather_probes(&scene, probes, probe_spp, probe_seed)?;
+        let interior: Vec<&Probe> = found.iter().filter(|p| p.interior).collect();
         eprintln!(
             "{}: {} probes path traced in {:.1} s",
             scene_file.display(),
@@ -169,11 +197,14 @@ pub fn run(exp: &Experiment, probes: usize, probe_spp: u32, probe_seed: u64, out
                     break; // no photon map: nothing to measure
                 }
                 let (rms, net, noise, ratio) = map_error(&found, |p| lookup(p).unwrap_or(0.0));
+                let ratio_interior = mean_ratio(interior.iter().copied(), |p| lookup(p).unwrap_or(0.0));
                 writeln!(
                     out,
-                    "{stem},{},{seed},{prep:.3},{},{probe_spp},{rms:.4},{net:.4},{noise:.4},{ratio:.4}",
+                    "{stem},{},{seed},{prep:.3},{},{probe_spp},{rms:.4},{net:.4},{noise:.4},{ratio:.4},{},{:.4}",
                     spec.label,
-                    found.len()
+                    found.len(),
+                    interior.len(),
+                    ratio_interior
                 )
                 .map_err(io)?;
             }
@@ -199,17 +230,19 @@ mod tests {
             wo: Vec3::Z,
             reference,
             reference_var,
+            interior: true,
         }
     }
 
     /// Photon mapping's map on `cornell-box`: its lookups agree with path-traced radiance at
     /// gather hits on average (a lookup off by ρ, by π or on the wrong side would be far off),
-    /// and its error falls as photons are added.
+    /// its error falls as photons are added, and away from edges it carries exactly the
+    /// k-nearest estimate's known excess k / (k − 1).
     #[test]
     fn photon_map_lookups_converge_to_path_traced_radiance_at_gather_hits() {
         let scene = load_scene(std::path::Path::new("scenes/cornell-box.toml")).unwrap();
-        let probes = gather_probes(&scene, 400, 1024, 5).unwrap();
-        assert!(probes.len() > 380, "gather probes found: {}", probes.len());
+        let probes = gather_probes(&scene, 1200, 1024, 5).unwrap();
+        assert!(probes.len() > 1150, "gather probes found: {}", probes.len());
         let measure = |photons: u64| {
             let mut table = toml::Table::new();
             table.insert("photons".into(), toml::Value::Integer(photons as i64));
@@ -221,6 +254,22 @@ mod tests {
         };
         let (_, net_few, _, ratio_few) = measure(5_000);
         let (_, net_many, noise, ratio_many) = measure(400_000);
+        // Away from edges the k-nearest estimate's only bias is its excess k / (k − 1) (k = 50:
+        // 1.020); the whole box's ratio also carries the loss of discs reaching past edges.
+        let interior = probes.iter().filter(|p| p.interior).count();
+        assert!(
+            interior > 300 && interior < 1000,
+            "interior probes: {interior} of {}",
+            probes.len()
+        );
+        let mut table = toml::Table::new();
+        table.insert("photons".into(), toml::Value::Integer(400_000));
+        let mut pm = crate::strategy::build("photon_map", table).unwrap();
+        pm.prepare(&scene, 1).unwrap();
+        let inner = mean_ratio(probes.iter().filter(|p| p.interior), |p| {
+            luminance(pm.map_lookup(&scene, &p.hit, p.wo).unwrap()) as f64
+        });
+        assert!((inner - 50.0 / 49.0).abs() < 0.015, "interior mean ratio {inner}");
         assert!(
             (ratio_many - 1.0).abs() < 0.05,
             "mean ratio {ratio_many} (5 000 photons: {ratio_few})"
