@@ -26,6 +26,7 @@
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
 use crate::experiment::Experiment;
+use crate::experiment::config::scene_stem;
 use crate::geometry::spawn_ray;
 use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::sampling::Rng;
@@ -183,9 +184,7 @@ pub fn run(exp: &Experiment, probes: usize, probe_spp: u32, probe_seed: u64, out
             found.len(),
             start.elapsed().as_secs_f64()
         );
-        let stem = scene_file
-            .file_stem()
-            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let stem = scene_stem(scene_file);
         for spec in exp.strategies.iter().filter(|s| s.runs_on(scene_file)) {
             for &seed in &exp.seeds {
                 let mut strategy = spec.instantiate()?;
