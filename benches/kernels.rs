@@ -135,7 +135,7 @@ fn metropolis(c: &mut Criterion) {
     ] {
         let scene = load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).expect("the shipped scene loads");
         let base = MetropolisParams {
-            b_samples: 20_000,
+            b_samples: Some(20_000),
             chains: 1,
             ..MetropolisParams::default()
         };

@@ -247,7 +247,7 @@ fn measure_mutations(scene: &Scene, seed: u64) -> [f64; crate::metropolis::PROPO
     use crate::metropolis::proposals::Context;
     use crate::metropolis::{Chain, MetropolisParams, Proposal, ProposalMix, State, Tally, estimate_b};
     let base = MetropolisParams {
-        b_samples: 20_000,
+        b_samples: Some(20_000),
         ..MetropolisParams::default()
     };
     let Ok((_, starts)) = estimate_b(scene, &base, seed) else {

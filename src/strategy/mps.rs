@@ -16,7 +16,9 @@
 //! the storage point. Every step stores the current path with weight 1 − a and the candidate
 //! with weight a (expected values, as in MLT); weights landing on the storage point and
 //! incoming direction of the photon being accumulated add to it instead of making a new photon
-//! (the paper's repeated paths).
+//! (the paper's repeated paths). `merge_chains` (default true) applies the same rule across
+//! chains: chains resampled onto the same first path deposit into one photon
+//! ([`merge_repeated_paths`]).
 //!
 //! **Photon power** (per channel), N the Metropolis iterations over all chains:
 //! - `photon_power = "paper"`: F = B_eye,Y · f_map(X_map) / (N · f_eye,Y(X)) [Fan et al.
@@ -42,7 +44,8 @@
 //!   (default) counts only importons in sight of the photon ([`DensityRule`]).
 //!
 //! Parameters: `mutations` (N, default 200 000), `photon_power`, `importons` (1 000 000),
-//! `importon_nearest` (64), `importon_edge_probes` (16), `importon_in_sight` (true); the chain's ([`MetropolisParams`]: `proposals`, `max_depth`,
+//! `importon_nearest` (64), `importon_edge_probes` (16), `importon_in_sight` (true), `merge_chains` (true);
+//! the chain's ([`MetropolisParams`]: `proposals`, `max_depth`,
 //! `b_samples`, `chains`, `pm_gamma_deg`, `lens_r1_px`, `lens_r2_fraction`, `caustic_theta1`,
 //! `caustic_theta2`) and the final gather's ([`PhotonMapParams`]: `nearest`,
 //! `caustic_nearest`, `max_radius`, `gather_rays`, `secondary_gather_rays`, `short_gather`,
@@ -118,6 +121,9 @@ pub struct MpsParams {
     /// Count only importons in sight of the photon ([`DensityRule::sight_lift`]): importance
     /// does not leak through thin walls.
     pub importon_in_sight: bool,
+    /// Sum deposits of the same path from different chains into one photon
+    /// ([`merge_repeated_paths`]).
+    pub merge_chains: bool,
 }
 
 impl Default for MpsParams {
@@ -129,6 +135,7 @@ impl Default for MpsParams {
             importon_nearest: 64,
             importon_edge_probes: 16,
             importon_in_sight: true,
+            merge_chains: true,
         }
     }
 }
@@ -141,6 +148,7 @@ const MPS_KEYS: &[&str] = &[
     "importon_nearest",
     "importon_edge_probes",
     "importon_in_sight",
+    "merge_chains",
 ];
 
 pub struct Mps {
@@ -235,6 +243,7 @@ impl Strategy for Mps {
             ("importon_nearest", p.importon_nearest.to_string()),
             ("importon_edge_probes", p.importon_edge_probes.to_string()),
             ("importon_in_sight", p.importon_in_sight.to_string()),
+            ("merge_chains", p.merge_chains.to_string()),
         ];
         out.extend(self.chain.describe());
         out.extend(
@@ -643,7 +652,7 @@ fn sample_photons(
     let chains = starts.len() as u64;
     let mutations = params.mutations;
     let power = params.photon_power;
-    let results: Vec<Sampled> = starts
+    let results: Vec<(Vec<Deposit>, Tally)> = starts
         .par_iter()
         .enumerate()
         .map(|(c, start)| {
@@ -651,23 +660,7 @@ fn sample_photons(
             let scene = ctx.scene;
             let mut chain = Chain::new(ctx, start.clone());
             let mut rng = Rng::for_task(seed, [super::stream::CHAIN, c as u64, 0]);
-            let mut probe_rng = Rng::for_task(seed, [super::stream::IMPORTON_PROBE, c as u64, 0]);
-            let mut out = Sampled::default();
-            let mut emit = |d: Deposit| {
-                let mut power = d.power;
-                if let Some(imp) = importons {
-                    let Some(inv_q) = imp.inverse_density(scene, d.map, d.p, d.n, &mut probe_rng) else {
-                        out.unseen += 1;
-                        return;
-                    };
-                    power *= inv_q;
-                }
-                let photon = Photon::new(d.p, power.as_vec3(), d.wi, d.n, d.flags);
-                match d.map {
-                    Map::Global => out.global.push(photon),
-                    Map::Caustic => out.caustic.push(photon),
-                }
-            };
+            let mut out = Vec::new();
             let deposit = |s: &State| Deposit::of(scene, s, b_y, mutations, power);
             let mut current = deposit(&chain.current);
             let mut tally = Tally::default();
@@ -688,9 +681,7 @@ fn sample_photons(
                             current = Some(old);
                         }
                         (old, new) => {
-                            if let Some(old) = old {
-                                emit(old);
-                            }
+                            out.extend(old);
                             current = new.map(|mut d| {
                                 d.add(step.a);
                                 d
@@ -702,33 +693,131 @@ fn sample_photons(
                         Some(cur) if cur.same_photon(&new) => cur.power += new.unit.as_dvec3() * step.a as f64,
                         _ => {
                             new.add(step.a);
-                            emit(new);
+                            out.push(new);
                         }
                     }
                 }
                 chain.commit(step);
             }
-            if let Some(cur) = current {
-                emit(cur);
-            }
-            out.tally = tally;
-            out
+            out.extend(current);
+            (out, tally)
         })
         .collect();
     let mut all = Sampled::default();
-    for r in results {
-        all.global.extend(r.global);
-        all.caustic.extend(r.caustic);
-        all.tally.merge(&r.tally);
-        all.unseen += r.unseen;
+    let mut deposits = Vec::new();
+    for (d, tally) in results {
+        deposits.extend(d);
+        all.tally.merge(&tally);
+    }
+    if params.merge_chains {
+        deposits = merge_repeated_paths(deposits);
+    }
+    let photons: Vec<(Map, Option<Photon>)> = deposits
+        .par_chunks(BLOCK)
+        .enumerate()
+        .flat_map_iter(|(i, block)| {
+            let scene = ctx.scene;
+            let mut probe_rng = Rng::for_task(seed, [super::stream::IMPORTON_PROBE, i as u64, 0]);
+            block
+                .iter()
+                .map(|d| {
+                    let mut power = d.power;
+                    if let Some(imp) = importons {
+                        let Some(inv_q) = imp.inverse_density(scene, d.map, d.p, d.n, &mut probe_rng) else {
+                            return (d.map, None);
+                        };
+                        power *= inv_q;
+                    }
+                    (d.map, Some(Photon::new(d.p, power.as_vec3(), d.wi, d.n, d.flags)))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    for (map, photon) in photons {
+        match (map, photon) {
+            (_, None) => all.unseen += 1,
+            (Map::Global, Some(p)) => all.global.push(p),
+            (Map::Caustic, Some(p)) => all.caustic.push(p),
+        }
     }
     all
+}
+
+/// Deposits per block of the importon normalisation (fixed: results never depend on threads).
+const BLOCK: usize = 1024;
+
+/// One photon per repeated path across chains: deposits with the same storage point and the
+/// same previous vertex (the paper's "repeated paths", §3.2) are summed, in chain order. Chains
+/// resampled from the same B_eye path start on the same storage point; as separate photons
+/// they would stack at one position and shrink the k-nearest radius around it.
+fn merge_repeated_paths(mut deposits: Vec<Deposit>) -> Vec<Deposit> {
+    let key = |d: &Deposit| {
+        let b = |v: Vec3| v.to_array().map(f32::to_bits);
+        (d.map as u8, b(d.p), b(d.from))
+    };
+    // Stable: equal keys stay in chain order, so sums do not depend on the thread count.
+    deposits.par_sort_by_key(key);
+    let mut out: Vec<Deposit> = Vec::with_capacity(deposits.len());
+    for d in deposits {
+        match out.last_mut() {
+            Some(last) if last.same_photon(&d) => last.power += d.power,
+            _ => out.push(d),
+        }
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::photon::test_scenes::SceneBuilder;
+
+    fn deposit(p: Vec3, from: Vec3, power: f64) -> Deposit {
+        Deposit {
+            map: Map::Global,
+            p,
+            from,
+            wi: (from - p).normalize(),
+            n: Vec3::Y,
+            flags: 0,
+            unit: Vec3::ONE,
+            power: DVec3::splat(power),
+        }
+    }
+
+    /// Two chains depositing the same path make one photon with both powers; the same point
+    /// reached from elsewhere, or stored in the other map, stays a photon of its own; power is
+    /// conserved, and the merge goes by the path, not by where its deposits sit in the list.
+    #[test]
+    fn repeated_paths_across_chains_merge_into_one_photon() {
+        let (a, b, up) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let mut caustic = deposit(a, up, 8.0);
+        caustic.map = Map::Caustic;
+        let chains = vec![
+            deposit(a, up, 1.0),
+            deposit(b, up, 2.0),
+            deposit(a, up + Vec3::X, 4.0),
+            caustic,
+            deposit(a, up, 16.0),
+        ];
+        let merged = merge_repeated_paths(chains.clone());
+        assert_eq!(merged.len(), 4);
+        let total: f64 = merged.iter().map(|d| d.power.x).sum();
+        assert_eq!(total, 31.0);
+        let same = merged
+            .iter()
+            .find(|d| d.map == Map::Global && d.p == a && d.from == up)
+            .unwrap();
+        assert_eq!(same.power.x, 17.0);
+        let reversed = merge_repeated_paths(chains.into_iter().rev().collect());
+        let key = |v: &[Deposit]| v.iter().map(|d| (d.p, d.from, d.power.x)).collect::<Vec<_>>();
+        let mut k1 = key(&merged);
+        let mut k2 = key(&reversed);
+        let cmp = |x: &(Vec3, Vec3, f64), y: &(Vec3, Vec3, f64)| x.2.total_cmp(&y.2);
+        k1.sort_by(cmp);
+        k2.sort_by(cmp);
+        assert_eq!(k1, k2);
+    }
 
     fn photons(powers: &[f32]) -> Vec<Photon> {
         powers
