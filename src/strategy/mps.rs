@@ -652,7 +652,7 @@ fn sample_photons(
     let chains = starts.len() as u64;
     let mutations = params.mutations;
     let power = params.photon_power;
-    let results: Vec<(Vec<Deposit>, Tally)> = starts
+    let results: Vec<(Sampled, Option<Deposit>)> = starts
         .par_iter()
         .enumerate()
         .map(|(c, start)| {
@@ -660,9 +660,15 @@ fn sample_photons(
             let scene = ctx.scene;
             let mut chain = Chain::new(ctx, start.clone());
             let mut rng = Rng::for_task(seed, [super::stream::CHAIN, c as u64, 0]);
-            let mut out = Vec::new();
+            let mut probe_rng = Rng::for_task(seed, [super::stream::IMPORTON_PROBE, c as u64, 0]);
+            let mut out = Sampled::default();
+            let mut emit = |d: Deposit| store(&mut out, d, importons, scene, &mut probe_rng);
             let deposit = |s: &State| Deposit::of(scene, s, b_y, mutations, power);
             let mut current = deposit(&chain.current);
+            // The photon of the first state, held back to merge with other chains' (below)
+            // while `current` is still it.
+            let mut first: Option<Deposit> = None;
+            let mut at_first = params.merge_chains && current.is_some();
             let mut tally = Tally::default();
             for _ in 0..chain_share(mutations, chains, c as u64) {
                 let step = chain.step(&mut rng, &mut tally);
@@ -681,7 +687,14 @@ fn sample_photons(
                             current = Some(old);
                         }
                         (old, new) => {
-                            out.extend(old);
+                            if let Some(old) = old {
+                                if std::mem::take(&mut at_first) {
+                                    first = Some(old);
+                                } else {
+                                    emit(old);
+                                }
+                            }
+                            at_first = false;
                             current = new.map(|mut d| {
                                 d.add(step.a);
                                 d
@@ -693,70 +706,71 @@ fn sample_photons(
                         Some(cur) if cur.same_photon(&new) => cur.power += new.unit.as_dvec3() * step.a as f64,
                         _ => {
                             new.add(step.a);
-                            out.push(new);
+                            emit(new);
                         }
                     }
                 }
                 chain.commit(step);
             }
-            out.extend(current);
-            (out, tally)
+            if let Some(cur) = current {
+                if at_first {
+                    first = Some(cur);
+                } else {
+                    emit(cur);
+                }
+            }
+            out.tally = tally;
+            (out, first)
         })
         .collect();
     let mut all = Sampled::default();
-    let mut deposits = Vec::new();
-    for (d, tally) in results {
-        deposits.extend(d);
-        all.tally.merge(&tally);
+    let mut firsts = Vec::new();
+    for (r, first) in results {
+        all.global.extend(r.global);
+        all.caustic.extend(r.caustic);
+        all.tally.merge(&r.tally);
+        all.unseen += r.unseen;
+        firsts.extend(first);
     }
-    if params.merge_chains {
-        deposits = merge_repeated_paths(deposits);
-    }
-    let photons: Vec<(Map, Option<Photon>)> = deposits
-        .par_chunks(BLOCK)
-        .enumerate()
-        .flat_map_iter(|(i, block)| {
-            let scene = ctx.scene;
-            let mut probe_rng = Rng::for_task(seed, [super::stream::IMPORTON_PROBE, i as u64, 0]);
-            block
-                .iter()
-                .map(|d| {
-                    let mut power = d.power;
-                    if let Some(imp) = importons {
-                        let Some(inv_q) = imp.inverse_density(scene, d.map, d.p, d.n, &mut probe_rng) else {
-                            return (d.map, None);
-                        };
-                        power *= inv_q;
-                    }
-                    (d.map, Some(Photon::new(d.p, power.as_vec3(), d.wi, d.n, d.flags)))
-                })
-                .collect::<Vec<_>>()
-        })
-        .collect();
-    for (map, photon) in photons {
-        match (map, photon) {
-            (_, None) => all.unseen += 1,
-            (Map::Global, Some(p)) => all.global.push(p),
-            (Map::Caustic, Some(p)) => all.caustic.push(p),
-        }
+    // Continuous paths repeat across chains only where chains start on the same resampled path.
+    let mut probe_rng = Rng::for_task(seed, [super::stream::IMPORTON_PROBE, chains, 1]);
+    for d in merge_repeated_paths(firsts) {
+        store(&mut all, d, importons, ctx.scene, &mut probe_rng);
     }
     all
 }
 
-/// Deposits per block of the importon normalisation (fixed: results never depend on threads).
-const BLOCK: usize = 1024;
+/// Turns a finished deposit into a photon of its map, normalised by the importon density
+/// (dropped, and counted, where no importon came near it).
+fn store(out: &mut Sampled, d: Deposit, importons: Option<&Importons>, scene: &Scene, probe_rng: &mut Rng) {
+    let mut power = d.power;
+    if let Some(imp) = importons {
+        let Some(inv_q) = imp.inverse_density(scene, d.map, d.p, d.n, probe_rng) else {
+            out.unseen += 1;
+            return;
+        };
+        power *= inv_q;
+    }
+    let photon = Photon::new(d.p, power.as_vec3(), d.wi, d.n, d.flags);
+    match d.map {
+        Map::Global => out.global.push(photon),
+        Map::Caustic => out.caustic.push(photon),
+    }
+}
 
 /// One photon per repeated path across chains: deposits with the same storage point and the
 /// same previous vertex (the paper's "repeated paths", §3.2) are summed, in chain order. Chains
 /// resampled from the same B_eye path start on the same storage point; as separate photons
-/// they would stack at one position and shrink the k-nearest radius around it.
+/// they would stack at one position and shrink the k-nearest radius around it. Applied to the
+/// chains' first photons, the only ones that can repeat across chains (every later path is a
+/// continuous random perturbation of its own chain's).
 fn merge_repeated_paths(mut deposits: Vec<Deposit>) -> Vec<Deposit> {
     let key = |d: &Deposit| {
         let b = |v: Vec3| v.to_array().map(f32::to_bits);
         (d.map as u8, b(d.p), b(d.from))
     };
     // Stable: equal keys stay in chain order, so sums do not depend on the thread count.
-    deposits.par_sort_by_key(key);
+    deposits.sort_by_key(key);
     let mut out: Vec<Deposit> = Vec::with_capacity(deposits.len());
     for d in deposits {
         match out.last_mut() {
