@@ -694,7 +694,6 @@ fn sample_photons(
                                     emit(old);
                                 }
                             }
-                            at_first = false;
                             current = new.map(|mut d| {
                                 d.add(step.a);
                                 d
