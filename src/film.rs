@@ -1,6 +1,7 @@
 //! Film: per-pixel accumulation of samples in linear RGB, with non-finite samples counted and
 //! excluded; the resulting [`Image`] and its EXR / PNG input and output.
 
+use crate::color::srgb8;
 use crate::error::{Context, Error, Result};
 use crate::util::{write_atomic, write_atomic_with};
 use glam::{DVec3, Vec3};
@@ -138,7 +139,7 @@ impl Film {
 // Image input and output.
 
 /// Checks that `image.pixels` holds `width · height` pixels.
-fn check_pixel_count(image: &Image, what: impl std::fmt::Display) -> Result<()> {
+pub(crate) fn check_pixel_count(image: &Image, what: impl std::fmt::Display) -> Result<()> {
     let expected = image.width as usize * image.height as usize;
     if image.pixels.len() != expected {
         return Err(Error::new(format!(
@@ -205,23 +206,6 @@ pub fn read_exr(path: &Path) -> Result<Image> {
     Ok(Image { width, height, pixels })
 }
 
-/// The sRGB opto-electronic transfer function (IEC 61966-2-1): linear `[0, 1]` to encoded
-/// `[0, 1]`; input outside `[0, 1]` is clamped first and NaN maps to 0.
-pub fn srgb_encode(linear: f32) -> f32 {
-    let v = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
-    if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// Linear `[0, 1]` to an 8-bit sRGB code value, rounded to nearest.
-#[inline]
-pub(crate) fn srgb8(linear: f32) -> u8 {
-    (srgb_encode(linear) * 255.0 + 0.5) as u8
-}
-
 /// Encodes an 8-bit RGB buffer as PNG and writes it atomically.
 pub fn write_rgb8_png(rgb: image::RgbImage, path: &Path) -> Result<()> {
     let mut bytes = std::io::Cursor::new(Vec::new());
@@ -232,93 +216,13 @@ pub fn write_rgb8_png(rgb: image::RgbImage, path: &Path) -> Result<()> {
 
 /// Writes an 8-bit sRGB PNG preview of a linear-RGB image: each channel is scaled by
 /// `2^exposure_stops` (0 leaves the image as is, +1 doubles it), clamped to `[0, 1]` and
-/// encoded with the sRGB transfer function ([`srgb_encode`]). The file is written atomically.
+/// encoded with the sRGB transfer function ([`crate::color::srgb_encode`]). The file is written atomically.
 pub fn write_png(image: &Image, path: &Path, exposure_stops: f32) -> Result<()> {
     check_pixel_count(image, path.display())?;
     let scale = exposure_stops.exp2();
     let rgb = image::RgbImage::from_fn(image.width, image.height, |x, y| {
         let p = image.get(x, y) * scale;
         image::Rgb([srgb8(p.x), srgb8(p.y), srgb8(p.z)])
-    });
-    write_rgb8_png(rgb, path)
-}
-
-/// Per-pixel relative errors below this value get the bottom colour of the error map.
-pub const ERROR_MAP_MIN: f64 = 1e-3;
-/// Per-pixel relative errors above this value get the top colour of the error map.
-pub const ERROR_MAP_MAX: f64 = 10.0;
-/// Colour of pixels whose error is NaN (not part of the colormap).
-pub const ERROR_MAP_NAN_RGB: [u8; 3] = [255, 0, 0];
-
-/// Viridis (van der Walt & Smith, matplotlib's default colormap; perceptually uniform and
-/// readable in greyscale and by colour-blind viewers) sampled at 9 evenly spaced stops, in
-/// 8-bit sRGB.
-const VIRIDIS_STOPS: [[u8; 3]; 9] = [
-    [0x44, 0x01, 0x54],
-    [0x47, 0x2d, 0x7b],
-    [0x3b, 0x52, 0x8b],
-    [0x2c, 0x72, 0x8e],
-    [0x21, 0x90, 0x8c],
-    [0x27, 0xad, 0x81],
-    [0x5d, 0xc8, 0x63],
-    [0xaa, 0xdc, 0x32],
-    [0xfd, 0xe7, 0x25],
-];
-
-/// Viridis at `t ∈ [0, 1]` (clamped), linearly interpolated between the 9 stops.
-pub fn viridis(t: f64) -> [u8; 3] {
-    let x = t.clamp(0.0, 1.0) * (VIRIDIS_STOPS.len() - 1) as f64;
-    let i = (x.floor() as usize).min(VIRIDIS_STOPS.len() - 2);
-    let f = x - i as f64;
-    let (a, b) = (VIRIDIS_STOPS[i], VIRIDIS_STOPS[i + 1]);
-    std::array::from_fn(|c| (a[c] as f64 + f * (b[c] as f64 - a[c] as f64)).round() as u8)
-}
-
-/// Per-pixel relative error `e = √(mean_c (I − R)² / (R² + ε))`, ε =
-/// [`crate::metrics::REL_MSE_EPSILON`]: the square root of the pixel's relMSE term, so
-/// `e ≈ |I − R| / R` (0.1 means 10 % off).
-pub fn relative_error_per_pixel(image: &Image, reference: &Image) -> Result<Vec<f64>> {
-    if (image.width, image.height) != (reference.width, reference.height) {
-        return Err(Error::new(format!(
-            "cannot map the error of a {}x{} image against a {}x{} reference: sizes differ",
-            image.width, image.height, reference.width, reference.height
-        )));
-    }
-    check_pixel_count(image, "error map image")?;
-    check_pixel_count(reference, "error map reference")?;
-    let eps = crate::metrics::REL_MSE_EPSILON;
-    Ok(image
-        .pixels
-        .iter()
-        .zip(&reference.pixels)
-        .map(|(i, r)| {
-            let (i, r) = (i.as_dvec3(), r.as_dvec3());
-            (((i - r) * (i - r) / (r * r + eps)).element_sum() / 3.0).sqrt()
-        })
-        .collect())
-}
-
-/// Colour of one relative error on the logarithmic error-map scale: `log10 e` from
-/// `log10 ERROR_MAP_MIN` (−3, bottom of viridis, dark purple) to `log10 ERROR_MAP_MAX`
-/// (+1, top, yellow), one decade per quarter of the colormap; zero and smaller errors clamp to
-/// the bottom, larger and infinite ones to the top; NaN is [`ERROR_MAP_NAN_RGB`].
-pub fn error_map_colour(e: f64) -> [u8; 3] {
-    if e.is_nan() {
-        return ERROR_MAP_NAN_RGB;
-    }
-    let (lo, hi) = (ERROR_MAP_MIN.log10(), ERROR_MAP_MAX.log10());
-    // log10(0) = -inf clamps to 0 below.
-    viridis((e.log10() - lo) / (hi - lo))
-}
-
-/// Writes a false-colour PNG of the per-pixel relative error of `image` against `reference`
-/// ([`relative_error_per_pixel`]), on the logarithmic viridis scale of [`error_map_colour`]:
-/// dark purple ≤ 0.1 %, blue-green ≈ 10 %, yellow ≥ 1000 %. The file is written atomically.
-pub fn write_error_png(image: &Image, reference: &Image, path: &Path) -> Result<()> {
-    let errors = relative_error_per_pixel(image, reference)?;
-    let width = image.width as usize;
-    let rgb = image::RgbImage::from_fn(image.width, image.height, |x, y| {
-        image::Rgb(error_map_colour(errors[y as usize * width + x as usize]))
     });
     write_rgb8_png(rgb, path)
 }
@@ -480,55 +384,6 @@ mod tests {
         let png = image::open(&path).unwrap().to_rgb8();
         assert_eq!(png.get_pixel(0, 1).0, [188, 118, 255]);
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
-    }
-
-    #[test]
-    fn srgb_encoding_is_continuous_at_the_linear_segment() {
-        let knee = 0.003_130_8f32;
-        let below = srgb_encode(knee);
-        let above = srgb_encode(knee * (1.0 + 1e-6));
-        assert!((above - below).abs() < 1e-5, "{below} vs {above}");
-        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-6);
-        assert_eq!(srgb8(1.0), 255);
-    }
-
-    #[test]
-    fn viridis_endpoints_and_midpoint_are_the_stops() {
-        assert_eq!(viridis(0.0), [0x44, 0x01, 0x54]);
-        assert_eq!(viridis(0.5), [0x21, 0x90, 0x8c]);
-        assert_eq!(viridis(1.0), [0xfd, 0xe7, 0x25]);
-        assert_eq!(viridis(-3.0), viridis(0.0));
-        assert_eq!(viridis(7.0), viridis(1.0));
-    }
-
-    #[test]
-    fn error_map_scale_is_logarithmic_from_a_thousandth_to_ten() {
-        assert_eq!(error_map_colour(0.0), viridis(0.0));
-        assert_eq!(error_map_colour(ERROR_MAP_MIN), viridis(0.0));
-        // One decade is a quarter of the colormap: 10 % is its middle.
-        assert_eq!(error_map_colour(0.1), viridis(0.5));
-        assert_eq!(error_map_colour(0.01), viridis(0.25));
-        assert_eq!(error_map_colour(ERROR_MAP_MAX), viridis(1.0));
-        assert_eq!(error_map_colour(f64::INFINITY), viridis(1.0));
-        assert_eq!(error_map_colour(f64::NAN), ERROR_MAP_NAN_RGB);
-    }
-
-    #[test]
-    fn error_png_colours_exact_firefly_and_nan_pixels() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("error.png");
-        let reference = image(3, 1, &[[1.0; 3], [1.0; 3], [1.0; 3]]);
-        let im = image(3, 1, &[[1.0; 3], [1000.0; 3], [f32::NAN; 3]]);
-        write_error_png(&im, &reference, &path).unwrap();
-        let png = image::open(&path).unwrap().to_rgb8();
-        assert_eq!(png.dimensions(), (3, 1));
-        assert_eq!(png.get_pixel(0, 0).0, viridis(0.0));
-        assert_eq!(png.get_pixel(1, 0).0, viridis(1.0));
-        assert_eq!(png.get_pixel(2, 0).0, ERROR_MAP_NAN_RGB);
-
-        let e = relative_error_per_pixel(&image(1, 1, &[[1.1, 1.1, 1.1]]), &image(1, 1, &[[1.0; 3]])).unwrap();
-        assert!((e[0] - 0.1 / 1.001f64.sqrt()).abs() < 1e-6);
-        assert!(write_error_png(&Image::new(2, 1), &Image::new(1, 2), &path).is_err());
     }
 
     #[test]

@@ -16,6 +16,7 @@
 
 pub mod bsdf;
 pub mod camera;
+pub mod color;
 pub mod error;
 pub mod experiment;
 pub mod film;

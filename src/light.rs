@@ -9,9 +9,10 @@
 //! that the MIS weight of a BSDF-sampled hit on a light uses the density light sampling there
 //! would have had.
 
+use crate::color::luminance;
 use crate::geometry::{Frame, Primitive};
 use crate::sampling::{sample_uniform_sphere, sample_uniform_triangle};
-use crate::scene::{Scene, luminance};
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use serde::Deserialize;
 use std::f32::consts::{PI, TAU};

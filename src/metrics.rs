@@ -30,9 +30,11 @@
 //! - **efficiency** = `1 / (MSE · time)` (Veach 1997, §2.5 "efficiency of an estimator"; Pharr,
 //!   Jakob & Humphreys, PBRT 4th ed., §2.1.4), higher is better.
 
+use crate::color::viridis;
 use crate::error::{Error, Result};
-use crate::film::Image;
+use crate::film::{Image, check_pixel_count, write_rgb8_png};
 use glam::DVec3;
+use std::path::Path;
 
 /// The ε of relMSE, `(I − R)² / (R² + ε)`: keeps black reference pixels finite. With ε = 1e-3
 /// an error of 1 on a black pixel contributes 1000, so black pixels still weigh heavily.
@@ -149,7 +151,7 @@ fn ldr(im: &Image) -> Vec<u8> {
     im.pixels
         .iter()
         .flat_map(|p| p.to_array())
-        .map(crate::film::srgb8)
+        .map(crate::color::srgb8)
         .collect()
 }
 
@@ -218,6 +220,64 @@ fn rms_relative_luminance_error(image: &Image, reference: &Image) -> (f64, u64) 
         f64::NAN
     };
     (rms, excluded)
+}
+
+// Per-pixel relative error and its false-colour map (written beside every render).
+
+/// Per-pixel relative errors below this value get the bottom colour of the error map.
+pub const ERROR_MAP_MIN: f64 = 1e-3;
+/// Per-pixel relative errors above this value get the top colour of the error map.
+pub const ERROR_MAP_MAX: f64 = 10.0;
+/// Colour of pixels whose error is NaN (not part of the colormap).
+pub const ERROR_MAP_NAN_RGB: [u8; 3] = [255, 0, 0];
+
+/// Per-pixel relative error `e = √(mean_c (I − R)² / (R² + ε))`, ε =
+/// [`REL_MSE_EPSILON`]: the square root of the pixel's relMSE term, so
+/// `e ≈ |I − R| / R` (0.1 means 10 % off).
+pub fn relative_error_per_pixel(image: &Image, reference: &Image) -> Result<Vec<f64>> {
+    if (image.width, image.height) != (reference.width, reference.height) {
+        return Err(Error::new(format!(
+            "cannot map the error of a {}x{} image against a {}x{} reference: sizes differ",
+            image.width, image.height, reference.width, reference.height
+        )));
+    }
+    check_pixel_count(image, "error map image")?;
+    check_pixel_count(reference, "error map reference")?;
+    let eps = REL_MSE_EPSILON;
+    Ok(image
+        .pixels
+        .iter()
+        .zip(&reference.pixels)
+        .map(|(i, r)| {
+            let (i, r) = (i.as_dvec3(), r.as_dvec3());
+            (((i - r) * (i - r) / (r * r + eps)).element_sum() / 3.0).sqrt()
+        })
+        .collect())
+}
+
+/// Colour of one relative error on the logarithmic error-map scale: `log10 e` from
+/// `log10 ERROR_MAP_MIN` (−3, bottom of viridis, dark purple) to `log10 ERROR_MAP_MAX`
+/// (+1, top, yellow), one decade per quarter of the colormap; zero and smaller errors clamp to
+/// the bottom, larger and infinite ones to the top; NaN is [`ERROR_MAP_NAN_RGB`].
+pub fn error_map_colour(e: f64) -> [u8; 3] {
+    if e.is_nan() {
+        return ERROR_MAP_NAN_RGB;
+    }
+    let (lo, hi) = (ERROR_MAP_MIN.log10(), ERROR_MAP_MAX.log10());
+    // log10(0) = -inf clamps to 0 below.
+    viridis((e.log10() - lo) / (hi - lo))
+}
+
+/// Writes a false-colour PNG of the per-pixel relative error of `image` against `reference`
+/// ([`relative_error_per_pixel`]), on the logarithmic viridis scale of [`error_map_colour`]:
+/// dark purple ≤ 0.1 %, blue-green ≈ 10 %, yellow ≥ 1000 %. The file is written atomically.
+pub fn write_error_png(image: &Image, reference: &Image, path: &Path) -> Result<()> {
+    let errors = relative_error_per_pixel(image, reference)?;
+    let width = image.width as usize;
+    let rgb = image::RgbImage::from_fn(image.width, image.height, |x, y| {
+        image::Rgb(error_map_colour(errors[y as usize * width + x as usize]))
+    });
+    write_rgb8_png(rgb, path)
 }
 
 #[cfg(test)]
@@ -458,5 +518,35 @@ mod tests {
     fn efficiency_is_inverse_of_error_times_time() {
         assert_close(efficiency(0.5, 4.0), 0.5);
         assert_close(efficiency(0.01, 10.0), 10.0);
+    }
+
+    #[test]
+    fn error_map_scale_is_logarithmic_from_a_thousandth_to_ten() {
+        assert_eq!(error_map_colour(0.0), viridis(0.0));
+        assert_eq!(error_map_colour(ERROR_MAP_MIN), viridis(0.0));
+        // One decade is a quarter of the colormap: 10 % is its middle.
+        assert_eq!(error_map_colour(0.1), viridis(0.5));
+        assert_eq!(error_map_colour(0.01), viridis(0.25));
+        assert_eq!(error_map_colour(ERROR_MAP_MAX), viridis(1.0));
+        assert_eq!(error_map_colour(f64::INFINITY), viridis(1.0));
+        assert_eq!(error_map_colour(f64::NAN), ERROR_MAP_NAN_RGB);
+    }
+
+    #[test]
+    fn error_png_colours_exact_firefly_and_nan_pixels() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("error.png");
+        let reference = image(3, 1, &[[1.0; 3], [1.0; 3], [1.0; 3]]);
+        let im = image(3, 1, &[[1.0; 3], [1000.0; 3], [f32::NAN; 3]]);
+        write_error_png(&im, &reference, &path).unwrap();
+        let png = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(png.dimensions(), (3, 1));
+        assert_eq!(png.get_pixel(0, 0).0, viridis(0.0));
+        assert_eq!(png.get_pixel(1, 0).0, viridis(1.0));
+        assert_eq!(png.get_pixel(2, 0).0, ERROR_MAP_NAN_RGB);
+
+        let e = relative_error_per_pixel(&image(1, 1, &[[1.1, 1.1, 1.1]]), &image(1, 1, &[[1.0; 3]])).unwrap();
+        assert!((e[0] - 0.1 / 1.001f64.sqrt()).abs() < 1e-6);
+        assert!(write_error_png(&Image::new(2, 1), &Image::new(1, 2), &path).is_err());
     }
 }

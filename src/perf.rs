@@ -10,9 +10,9 @@
 
 use crate::geometry::Ray;
 use crate::sampling::Rng;
+use crate::sampling::stream;
 use crate::scene::Scene;
 use crate::strategy::path::{PathParams, RayTally, radiance, radiance_traced};
-use crate::strategy::stream;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -208,7 +208,7 @@ fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
             let frame = crate::geometry::Frame::from_normal(n);
             let dirs = buf.iter().map(|nb| {
                 let ph = &map.photons()[nb.index as usize];
-                (frame.to_local(ph.direction()), crate::scene::luminance(ph.power()))
+                (frame.to_local(ph.direction()), crate::color::luminance(ph.power()))
             });
             PhotonGrid::build(dirs, 4, 16, 0.01, EmptyCells::Each).cell_count()
         })

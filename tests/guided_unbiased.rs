@@ -4,10 +4,11 @@
 //! almost all light is indirect and the guided pdf matters most.
 
 use glam::Vec2;
+use photon_bench::color::luminance;
 use photon_bench::film::Film;
 use photon_bench::sampling::Rng;
+use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_bytes;
-use photon_bench::scene::{Scene, luminance};
 use photon_bench::strategy::path::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, trace};
 use photon_bench::strategy::photon_guided::{GridSampler, PhotonGuided, PhotonGuidedParams};
 use photon_bench::strategy::{self, Strategy};

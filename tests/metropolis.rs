@@ -11,13 +11,14 @@
 
 use glam::{DVec3, Vec3};
 use photon_bench::camera::Camera;
+use photon_bench::color::luminance;
 use photon_bench::film::Film;
 use photon_bench::metropolis::proposals::Context;
 use photon_bench::metropolis::{Chain, MetropolisParams, ProposalMix, State, Tally, estimate_b, prepare_user_paths};
 use photon_bench::path_space::Vertex;
 use photon_bench::sampling::Rng;
 use photon_bench::sampling::chi2::chi2_upper_tail;
-use photon_bench::scene::{Scene, UserPath, load_scene, luminance};
+use photon_bench::scene::{Scene, UserPath, load_scene};
 use photon_bench::strategy;
 
 const W: u32 = 24;

@@ -10,10 +10,11 @@
 //! - The rendered image matches path tracing in mean.
 
 use photon_bench::camera::Camera;
+use photon_bench::color::luminance;
 use photon_bench::film::Film;
 use photon_bench::photon::{CausticStorage, TraceParams, trace_photons};
+use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_bytes;
-use photon_bench::scene::{Scene, luminance};
 use photon_bench::strategy::{self, Strategy};
 use std::path::Path;
 

@@ -5,10 +5,11 @@
 //! and `desk-lamp` (a sphere light inside a transmitting shade, a quad light: the scene where
 //! the light sampling options matter).
 
+use photon_bench::color::luminance;
 use photon_bench::film::Film;
 use photon_bench::light::{LightSelection, SphereSampling};
 use photon_bench::scene::load::load_scene_bytes;
-use photon_bench::scene::{Scene, load_scene, luminance};
+use photon_bench::scene::{Scene, load_scene};
 use photon_bench::strategy::Strategy;
 use photon_bench::strategy::path::{BsdfSampling, Direct, Path, PathParams};
 

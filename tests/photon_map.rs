@@ -2,10 +2,11 @@
 //! means), the precomputed-irradiance variant agrees with direct lookups, and bad parameters are
 //! refused. (1 vs 2 threads: `tests/determinism.rs` covers every kind.)
 
+use photon_bench::color::luminance;
 use photon_bench::film::{Film, Image, read_exr};
 use photon_bench::metrics::compare;
+use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_bytes;
-use photon_bench::scene::{Scene, luminance};
 use photon_bench::strategy;
 use std::path::Path;
 

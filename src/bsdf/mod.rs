@@ -42,8 +42,8 @@ pub use mirror::Mirror;
 pub use phong::Phong;
 pub use ward::Ward;
 
+use crate::color::luminance;
 use crate::error::{Error, Result};
-use crate::scene::luminance;
 use glam::{Vec2, Vec3};
 
 /// Whether a path carries radiance (from the camera) or importance (from the lights).

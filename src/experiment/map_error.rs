@@ -24,6 +24,7 @@
 //! no lookup's disc can reach past an edge; and the preparation time.
 
 use crate::bsdf::TransportMode;
+use crate::color::luminance;
 use crate::error::{Error, Result};
 use crate::experiment::Experiment;
 use crate::experiment::config::scene_stem;
@@ -31,7 +32,7 @@ use crate::geometry::spawn_ray;
 use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::sampling::Rng;
 use crate::scene::load::load_scene;
-use crate::scene::{Scene, SurfaceHit, luminance};
+use crate::scene::{Scene, SurfaceHit};
 use crate::strategy::mps::{DensityRule, surface_area_in_ball};
 use crate::strategy::path::{BsdfSampling, Direct, Roulette, Walk, trace};
 use crate::strategy::photon_map::scene_diagonal;
@@ -39,9 +40,6 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::io::Write;
 use std::time::Instant;
-
-/// Random stream of the probes (task key, distinct from every strategy's).
-const PROBE_STREAM: u64 = 0x9_A0BE;
 
 /// Tries per probe before giving up on a scene whose gather rays rarely find a surface.
 const MAX_TRIES: usize = 256;
@@ -81,7 +79,7 @@ pub fn gather_probes(scene: &Scene, count: usize, spp: u32, seed: u64) -> Result
     let probes: Vec<Option<Probe>> = (0..count as u64)
         .into_par_iter()
         .map(|i| {
-            let mut rng = Rng::for_task(seed, [PROBE_STREAM, i, 0]);
+            let mut rng = Rng::for_task(seed, [crate::sampling::stream::MAP_PROBE, i, 0]);
             let (ray, hit) = (0..MAX_TRIES).find_map(|_| gather_hit(scene, &mut rng))?;
             let (mut sum, mut sum2) = (0.0f64, 0.0f64);
             for _ in 0..spp {

@@ -22,8 +22,9 @@
 use super::config::{Experiment, MAX_SPP, StrategySpec};
 use super::reference::{self, Reference};
 use crate::error::{Context, Result};
-use crate::film::{Film, image_strip, read_exr, write_error_png, write_exr, write_png};
+use crate::film::{Film, image_strip, read_exr, write_exr, write_png};
 use crate::metrics;
+use crate::metrics::write_error_png;
 use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row, format_counters, read_csv, write_csv};
 use crate::scene::{Scene, load_scene};
 use indicatif::{ProgressBar, ProgressStyle};

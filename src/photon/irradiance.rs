@@ -109,9 +109,10 @@ pub fn has_irradiance(p: &Photon) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::color::luminance;
     use crate::photon::trace::{TraceParams, trace_photons};
     use crate::sampling::Rng;
-    use crate::scene::{Scene, load_scene, luminance};
+    use crate::scene::{Scene, load_scene};
     use std::path::Path;
 
     fn cornell(name: &str) -> Scene {

@@ -95,15 +95,6 @@ fn at_largest<'g, 'a>(scene: &str, groups: &'g [Group<'a>], budget: &str) -> Vec
     of_budget().filter(|g| g.budget_value == largest).collect()
 }
 
-/// The preparation phases of a row: `name=seconds;…` parsed (unreadable entries skipped).
-pub fn phases(row: &Row) -> Vec<(&str, f64)> {
-    row.phases
-        .split(';')
-        .filter_map(|p| p.split_once('='))
-        .filter_map(|(name, s)| s.parse().ok().map(|s| (name, s)))
-        .collect()
-}
-
 /// Bar charts of `scene`: mean MSE per strategy with [`CONFIDENCE`] error bars at the largest
 /// time budget (`<scene>_mse_equal_time`) and at the largest spp checkpoint
 /// (`<scene>_mse_equal_spp`), and the time per phase, stacked, at the largest spp checkpoint
@@ -146,7 +137,7 @@ fn write_bar_charts(scene: &str, groups: &[Group], plots: &Path) -> Result<()> {
     let mut names: Vec<String> = Vec::new();
     for g in &at {
         for r in &g.rows {
-            for (name, _) in phases(r) {
+            for (name, _) in r.phases() {
                 if !names.iter().any(|n| n == name) {
                     names.push(name.to_string());
                 }
@@ -167,7 +158,7 @@ fn write_bar_charts(scene: &str, groups: &[Group], plots: &Path) -> Result<()> {
                             if name == "render" {
                                 r.render_s
                             } else {
-                                phases(r).iter().filter(|(n, _)| n == name).map(|(_, s)| s).sum()
+                                r.phases().iter().filter(|(n, _)| n == name).map(|(_, s)| s).sum()
                             }
                         })
                         .collect();

@@ -11,7 +11,6 @@
 //! comes from the rows (`render_s` is the final-gather time: rendering is final gathering plus
 //! a few camera rays, light samples and caustic lookups) and the checkpoint images.
 
-use super::convergence::phases;
 use super::rows::{BUDGET_SPP, Row, counter};
 use crate::error::{Context, Result};
 use crate::film::read_exr;
@@ -108,7 +107,7 @@ pub fn comparisons(rows: &[Row], dir: &Path) -> Result<Vec<Comparison>> {
         let between = crate::metrics::compare(&read(v)?, &read(d)?).context(&v.image)?.mse;
         let c = |r: &Row, name: &str| counter(r, name).unwrap_or(f64::NAN);
         let phase = |r: &Row, names: &[&str]| -> f64 {
-            phases(r)
+            r.phases()
                 .iter()
                 .filter(|(n, _)| names.contains(n))
                 .map(|(_, s)| s)

@@ -13,8 +13,9 @@
 //! files a run wrote ([`figure_links`]).
 
 use super::rows::Row;
+use crate::color::viridis;
 use crate::error::Result;
-use crate::film::{viridis, write_rgb8_png};
+use crate::film::write_rgb8_png;
 use crate::geometry::spawn_shadow_ray;
 use crate::scene::Scene;
 use glam::Vec3;

@@ -208,6 +208,17 @@ pub fn counter(row: &Row, name: &str) -> Option<f64> {
         .map(|(_, v)| v)
 }
 
+impl Row {
+    /// The preparation phases: `name=seconds;…` parsed (unreadable entries skipped).
+    pub fn phases(&self) -> Vec<(&str, f64)> {
+        self.phases
+            .split(';')
+            .filter_map(|p| p.split_once('='))
+            .filter_map(|(name, s)| s.parse().ok().map(|s| (name, s)))
+            .collect()
+    }
+}
+
 /// Rows grouped by checkpoint, in first-seen order.
 pub fn group(rows: &[Row]) -> Vec<Group<'_>> {
     let mut out: Vec<Group> = Vec::new();

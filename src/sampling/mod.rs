@@ -1,10 +1,11 @@
 //! Sampling: warps from the unit square (each `sample_*` with its `*_pdf` sibling), seeded
-//! random-number streams, discrete distributions and multiple importance sampling weights.
+//! random-number streams and their purposes ([`stream`]), discrete distributions and multiple importance sampling weights.
 
 pub mod chi2;
 pub mod distribution;
 pub mod photon_grid;
 pub mod rng;
+pub mod stream;
 pub mod warp;
 
 pub use distribution::Distribution1D;

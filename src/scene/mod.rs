@@ -13,6 +13,7 @@ pub use load::load_scene;
 
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
+use crate::color::luminance;
 use crate::error::Result;
 use crate::geometry::{Accel, Frame, Hit, Primitive, Ray};
 use crate::light::{AreaLight, Emission};
@@ -102,12 +103,6 @@ pub fn pull_off_edges(b: Vec2) -> Vec2 {
     } else {
         b
     }
-}
-
-/// Relative luminance of linear Rec. 709 RGB.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 impl Scene {

@@ -18,9 +18,7 @@ use super::{Phase, Strategy};
 use crate::error::Result;
 use crate::film::Film;
 use crate::metropolis::proposals::Context;
-use crate::metropolis::{
-    BEstimate, Chain, MetropolisParams, State, Tally, UserPathInfo, estimate_b, prepare_user_paths,
-};
+use crate::metropolis::{BEstimate, Chain, MetropolisParams, State, Tally, UserPathInfo, chain_share, prepare_chains};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
@@ -68,34 +66,6 @@ impl Mlt {
     }
 }
 
-/// Checks the proposal mix against the scene and estimates B_eye with the chains' first
-/// states (shared with `mps`).
-pub(crate) fn prepare_chains(
-    scene: &Scene,
-    params: &MetropolisParams,
-    seed: u64,
-) -> Result<(BEstimate, Vec<State>, Vec<UserPathInfo>)> {
-    if params.proposals.up > 0.0 && scene.user_paths.is_empty() {
-        crate::bail!(
-            "proposals.up = {} but the scene {} has no [[user_paths]]: set up = 0 or add user paths",
-            params.proposals.up,
-            scene.source.display()
-        );
-    }
-    let user_paths = prepare_user_paths(scene)?;
-    let (b, paths) = estimate_b(scene, params, seed)?;
-    let starts = paths
-        .into_iter()
-        .map(|p| State::new(scene, p).ok_or_else(|| crate::Error::new("a resampled first state has zero contribution")))
-        .collect::<Result<Vec<_>>>()?;
-    Ok((b, starts, user_paths))
-}
-
-/// Mutations of chain `c` in one block of `total` mutations over `chains` chains.
-pub(crate) fn chain_share(total: u64, chains: u64, c: u64) -> u64 {
-    total / chains + u64::from(c < total % chains)
-}
-
 impl Strategy for Mlt {
     fn kind(&self) -> &'static str {
         "mlt"
@@ -141,7 +111,7 @@ impl Strategy for Mlt {
                 .enumerate()
                 .map(|(c, state)| {
                     let mut chain = Chain::new(ctx(), state.clone());
-                    let mut rng = Rng::for_task(seed, [super::stream::CHAIN, c as u64, s as u64]);
+                    let mut rng = Rng::for_task(seed, [crate::sampling::stream::CHAIN, c as u64, s as u64]);
                     let mut tally = Tally::default();
                     let mut splats = Vec::new();
                     let width = scene.camera.width;

@@ -18,7 +18,7 @@ pub use path::Path;
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::geometry::Ray;
-use crate::sampling::Rng;
+use crate::sampling::{Rng, stream};
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -85,23 +85,6 @@ pub trait Strategy: Send + Sync {
 pub struct Figure {
     pub suffix: &'static str,
     pub image: crate::film::Image,
-}
-
-/// Stream purposes, so that different uses of one seed never share random numbers.
-pub mod stream {
-    pub const CAMERA_PATH: u64 = 1;
-    /// Photon path i of photon tracing: `[PHOTON_PATH, i, 0]` ([`crate::photon::trace_photons`]).
-    pub const PHOTON_PATH: u64 = 2;
-    /// Path-tracing sample i of the B_eye estimate: `[B_EYE, i, 0]` ([`crate::metropolis`]).
-    pub const B_EYE: u64 = 3;
-    /// First state of Metropolis chain c: `[CHAIN_START, c, 0]`.
-    pub const CHAIN_START: u64 = 4;
-    /// Mutations of chain c in block b: `[CHAIN, c, b]`.
-    pub const CHAIN: u64 = 5;
-    /// Importon path i of `mps`'s importance normalisation: `[IMPORTON, i, 0]`.
-    pub const IMPORTON: u64 = 6;
-    /// Area probes of the importon density estimates of Metropolis chain c: `[IMPORTON_PROBE, c, 0]`.
-    pub const IMPORTON_PROBE: u64 = 7;
 }
 
 /// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel

@@ -52,21 +52,22 @@
 //! `precomputed_irradiance`, `irradiance_cache`; `photons` does not apply). `max_depth`
 //! bounds both the chain's paths and the gather's specular bounces.
 
-use super::mlt::{chain_share, prepare_chains};
 use super::photon_map::{PhotonMapParams, PhotonMapStrategy};
 use super::{Phase, Strategy, parse_params};
 use crate::bsdf::SurfaceKind;
 use crate::bsdf::TransportMode;
+use crate::color::luminance;
 use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::{Frame, Ray};
 use crate::metropolis::proposals::Context;
 use crate::metropolis::{BEstimate, Chain, MetropolisParams, State, Tally, incoming};
+use crate::metropolis::{chain_share, prepare_chains};
 use crate::path_space::walk::{extend_eye_to_diffuse, sample_direction, trace_from};
 use crate::path_space::{Vertex, direction, first_diffuse_from_eye, light_throughput, pdf_eye_side};
 use crate::photon::{EstimateParams, Photon, PhotonMap, flags};
 use crate::sampling::{Rng, latin_hypercube, sample_concentric_disk};
-use crate::scene::{Scene, SurfaceHit, luminance};
+use crate::scene::{Scene, SurfaceHit};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -505,7 +506,7 @@ impl Importons {
             .map(|b| {
                 let (mut caustic, mut global) = (Vec::new(), Vec::new());
                 for i in b * BLOCK..((b + 1) * BLOCK).min(paths) {
-                    let mut rng = Rng::for_task(seed, [super::stream::IMPORTON, i, 0]);
+                    let mut rng = Rng::for_task(seed, [crate::sampling::stream::IMPORTON, i, 0]);
                     let mut rev = vec![Vertex::eye(scene)];
                     if !extend_eye_to_diffuse(scene, &mut rev, max_edges, &mut rng) {
                         continue;
@@ -659,8 +660,8 @@ fn sample_photons(
             let ctx = *ctx;
             let scene = ctx.scene;
             let mut chain = Chain::new(ctx, start.clone());
-            let mut rng = Rng::for_task(seed, [super::stream::CHAIN, c as u64, 0]);
-            let mut probe_rng = Rng::for_task(seed, [super::stream::IMPORTON_PROBE, c as u64, 0]);
+            let mut rng = Rng::for_task(seed, [crate::sampling::stream::CHAIN, c as u64, 0]);
+            let mut probe_rng = Rng::for_task(seed, [crate::sampling::stream::IMPORTON_PROBE, c as u64, 0]);
             let mut out = Sampled::default();
             let mut emit = |d: Deposit| store(&mut out, d, importons, scene, &mut probe_rng);
             let deposit = |s: &State| Deposit::of(scene, s, b_y, mutations, power);
@@ -732,7 +733,7 @@ fn sample_photons(
         firsts.extend(first);
     }
     // Continuous paths repeat across chains only where chains start on the same resampled path.
-    let mut probe_rng = Rng::for_task(seed, [super::stream::IMPORTON_PROBE, chains, 1]);
+    let mut probe_rng = Rng::for_task(seed, [crate::sampling::stream::IMPORTON_PROBE, chains, 1]);
     for d in merge_repeated_paths(firsts) {
         store(&mut all, d, importons, ctx.scene, &mut probe_rng);
     }

@@ -65,6 +65,7 @@ use super::path::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, light_
 use super::photon_map::Precomputed;
 use super::{Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
+use crate::color::luminance;
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::geometry::Frame;
@@ -73,7 +74,7 @@ use crate::photon::{CausticStorage, KdPoint, KdTree, Neighbour, Photon, TracePar
 use crate::resources;
 use crate::sampling::Rng;
 use crate::sampling::photon_grid::{EmptyCells, PhotonGrid};
-use crate::scene::{Scene, SurfaceHit, luminance};
+use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Deserialize;

@@ -90,7 +90,7 @@ use crate::photon::{
 };
 use crate::report::photons::{GATHER_SEES_PNG, IRRADIANCE_PNG, PRECOMPUTED_PNG, visible_pixels};
 use crate::resources;
-use crate::sampling::{Rng, latin_hypercube, sample_cosine_hemisphere};
+use crate::sampling::{Rng, latin_hypercube, sample_cosine_hemisphere, stream};
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -99,14 +99,6 @@ use std::f32::consts::{FRAC_1_PI, PI};
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
-
-/// Random-stream purpose of the irradiance cache's overture, `[CACHE_STREAM, pixel, 0]`: apart
-/// from the purposes of [`super::stream`] (kept local to leave that list to its owners).
-const CACHE_STREAM: u64 = 0x1CAC_4E00;
-
-/// Random-stream purpose of the Fig. 1 images' camera rays through delta surfaces,
-/// `[FIGURE_STREAM, pixel, 0]` ([`Strategy::figures`]).
-const FIGURE_STREAM: u64 = 0x1CF1_6000;
 
 pub const SUMMARY: &str = "photon mapping with final gathering, optional precomputed irradiance or irradiance caching (Jensen 1996; Christensen 1999; Ward 1988)";
 
@@ -536,7 +528,7 @@ impl Strategy for PhotonMapStrategy {
     ///   same first hits, what a final-gather ray landing there reads ([`Renderer::lookup`]):
     ///   ρ/π · E of the nearest precomputed photon, or the global map's radiance estimate.
     ///
-    /// The delta chains draw from `[FIGURE_STREAM, pixel, 0]`, so the images depend on the seed
+    /// The delta chains draw from `[stream::FIGURE, pixel, 0]`, so the images depend on the seed
     /// only, never on the thread count.
     fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {
         let Some(maps) = &self.maps else {
@@ -552,7 +544,7 @@ impl Strategy for PhotonMapStrategy {
         let hits: Vec<Option<(SurfaceHit, Vec3, Vec3)>> = (0..cam.pixel_count())
             .into_par_iter()
             .map(|pixel| {
-                let mut rng = Rng::for_task(seed, [FIGURE_STREAM, pixel as u64, 0]);
+                let mut rng = Rng::for_task(seed, [stream::FIGURE, pixel as u64, 0]);
                 let (x, y) = (pixel % width as usize, pixel / width as usize);
                 let ray = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
                 r.first_diffuse_hit(ray, &mut rng)
@@ -972,7 +964,7 @@ impl Renderer<'_> {
                 .par_iter()
                 .map(|&(x, y)| {
                     let pixel = u64::from(y) * u64::from(width) + u64::from(x);
-                    let mut rng = Rng::for_task(seed, [CACHE_STREAM, pixel, 0]);
+                    let mut rng = Rng::for_task(seed, [stream::IRRADIANCE_CACHE, pixel, 0]);
                     let mut c = PhotonMapCounters::default();
                     let ray = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
                     let record = self.cache_record(ray, &cache, caching, r_clamp, &mut rng, &mut c);
