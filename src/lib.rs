@@ -19,6 +19,7 @@ pub mod camera;
 pub mod color;
 pub mod error;
 pub mod experiment;
+pub mod figure;
 pub mod film;
 pub mod geometry;
 pub mod light;

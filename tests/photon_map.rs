@@ -250,7 +250,10 @@ fn fig1_images_follow_the_maps_they_are_drawn_from() {
         let table: toml::Table = toml::from_str(params).unwrap();
         let mut s = strategy::build("photon_map", table).unwrap();
         s.prepare(&scene, 1).unwrap();
-        s.figures(&scene, 1).into_iter().map(|f| (f.suffix, f.image)).collect()
+        s.figures(&scene, 1)
+            .into_iter()
+            .filter_map(|f| Some((f.suffix, f.radiance()?.clone())))
+            .collect()
     };
     let get = |figs: &[(&str, Image)], suffix: &str| figs.iter().find(|(s, _)| *s == suffix).map(|(_, i)| i.clone());
     let base = "photons = 60000\nnearest = 50\nmax_radius = 0.05\ngather_rays = 4";

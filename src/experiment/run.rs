@@ -710,16 +710,9 @@ fn render_cell(
     let counters = CounterClock::new(strategy.counters());
     let (width, height) = (p.scene.camera.width, p.scene.camera.height);
     let stem = format!("{}_{}_seed{seed}", p.scene.name, spec.file_stem());
-    let photons = strategy.photons();
-    if !photons.is_empty() {
-        let path = dir
-            .join("images")
-            .join(format!("{stem}{}", crate::report::photons::PHOTONS_PNG));
-        crate::report::photons::write_photon_image(&p.scene, &photons, &path)?;
-    }
     for figure in strategy.figures(&p.scene, seed) {
         let path = dir.join("images").join(format!("{stem}{}", figure.suffix));
-        crate::film::write_png(&figure.image, &path, 0.0)?;
+        figure.write_png(&path)?;
     }
     let mut rows = Vec::new();
 

@@ -96,7 +96,7 @@ impl AreaLight {
 /// `"power"` picks light i with probability Φᵢ / Σ Φ (luminance of the emitted power,
 /// `Scene::light_selection`): one table for the whole scene, blind to where the shading point
 /// is. `"local"` picks ∝ an estimate of light i's unoccluded contribution at the shading point,
-/// [`local_weight`] = Y(Leᵢ) · Ωᵢ(x) · c̄ᵢ(x) (solid angle times an upper bound of the receiver
+/// [`selection::local_weight`] = Y(Leᵢ) · Ωᵢ(x) · c̄ᵢ(x) (solid angle times an upper bound of the receiver
 /// cosine), the per-point importance many-light samplers use [Shirley, Wang & Zimmerman 1996,
 /// "Monte Carlo Techniques for Direct Lighting Calculations", ACM TOG 15(1); Conty Estevez &
 /// Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree Splitting", HPG, whose

@@ -27,6 +27,7 @@ pub mod estimate;
 pub mod irradiance;
 pub mod irradiance_cache;
 pub mod kdtree;
+pub mod picture;
 pub mod record;
 pub mod trace;
 

@@ -13,6 +13,7 @@ pub mod path;
 pub mod photon_guided;
 pub mod photon_map;
 
+pub use crate::figure::Figure;
 pub use path::Path;
 
 use crate::error::{Error, Result};
@@ -56,12 +57,6 @@ pub trait Strategy: Send + Sync {
         Vec::new()
     }
 
-    /// The photons the strategy renders with (its global map: position and normal), for the
-    /// photon distribution images of Fan et al. 2005, Fig. 2; empty without photons.
-    fn photons(&self) -> Vec<(Vec3, Vec3)> {
-        Vec::new()
-    }
-
     /// What a final-gather ray reaching the non-delta surface point `hit` reads from the
     /// strategy's photon maps as the radiance leaving it toward `wo` (world, unit): the
     /// lookup `bench map-error` measures ([`crate::experiment::map_error`]). `None` for
@@ -71,20 +66,14 @@ pub trait Strategy: Send + Sync {
         None
     }
 
-    /// Diagnostic images of what `prepare` built (Christensen 1999, Fig. 1: irradiance at the
-    /// image points, precomputed irradiance, what the final gather sees), in linear RGB on the
-    /// renders' radiance scale; written beside the renders as `<cell><suffix>`. Empty by default.
+    /// Diagnostic images of what `prepare` built (the photon distribution of Fan et al. 2005,
+    /// Fig. 2; Christensen 1999, Fig. 1: irradiance at the image points, precomputed
+    /// irradiance, what the final gather sees; [`crate::figure`]); written beside the renders
+    /// as `<cell><suffix>`. Empty by default.
     fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {
         let _ = (scene, seed);
         Vec::new()
     }
-}
-
-/// A diagnostic image of a strategy ([`Strategy::figures`]): the file name suffix (one of
-/// [`crate::report::photons::FIGURES`]) and the image.
-pub struct Figure {
-    pub suffix: &'static str,
-    pub image: crate::film::Image,
 }
 
 /// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel

@@ -53,7 +53,7 @@
 //! bounds both the chain's paths and the gather's specular bounces.
 
 use super::photon_map::{PhotonMapParams, PhotonMapStrategy};
-use super::{Phase, Strategy, parse_params};
+use super::{Figure, Phase, Strategy, parse_params};
 use crate::bsdf::SurfaceKind;
 use crate::bsdf::TransportMode;
 use crate::color::luminance;
@@ -313,8 +313,13 @@ impl Strategy for Mps {
         self.gather.lookup_maps(scene, hit, wo)
     }
 
-    fn photons(&self) -> Vec<(Vec3, Vec3)> {
-        self.gather.photons()
+    /// The photon distribution of the map the chain built [Fan et al. 2005, Fig. 2].
+    fn figures(&self, scene: &Scene, _seed: u64) -> Vec<Figure> {
+        let photons = self.gather.photons();
+        if photons.is_empty() {
+            return Vec::new();
+        }
+        vec![crate::photon::picture::distribution(scene, &photons)]
     }
 
     fn counters(&self) -> Vec<(String, f64)> {

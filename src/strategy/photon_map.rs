@@ -81,14 +81,15 @@ use super::path::{BsdfSampling, Direct, estimate_direct, light_sampling_params, 
 use super::{Figure, Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::error::{Error, Result};
+use crate::figure::{FigureImage, GATHER_SEES_PNG, IRRADIANCE_PNG, PRECOMPUTED_PNG};
 use crate::film::{Film, Image};
 use crate::geometry::{Ray, spawn_ray};
 use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::photon::irradiance_cache::{CacheRecord, Gradients, IrradianceCache, PolarStrata, gradients};
+use crate::photon::picture::{self, visible_pixels};
 use crate::photon::{
     CausticStorage, EstimateParams, IrradianceMap, Photon, PhotonMap, TraceParams, precompute_irradiance, trace_photons,
 };
-use crate::report::photons::{GATHER_SEES_PNG, IRRADIANCE_PNG, PRECOMPUTED_PNG, visible_pixels};
 use crate::resources;
 use crate::sampling::{Rng, latin_hypercube, sample_cosine_hemisphere, stream};
 use crate::scene::{Scene, SurfaceHit};
@@ -414,6 +415,14 @@ impl PhotonMapStrategy {
             .max(f32::MIN_POSITIVE)
     }
 
+    /// The global map's photons (position, normal), for the photon distribution figure; empty
+    /// before `prepare`.
+    pub fn photons(&self) -> Vec<(Vec3, Vec3)> {
+        self.maps.as_ref().map_or_else(Vec::new, |m| {
+            m.global.photons().iter().map(|p| (p.position(), p.normal())).collect()
+        })
+    }
+
     /// Photons in the global and caustic maps (0, 0 before `prepare`).
     pub fn map_sizes(&self) -> (usize, usize) {
         self.maps.as_ref().map_or((0, 0), |m| (m.global.len(), m.caustic.len()))
@@ -505,12 +514,6 @@ impl Strategy for PhotonMapStrategy {
         self.lookup_maps(scene, hit, wo)
     }
 
-    fn photons(&self) -> Vec<(Vec3, Vec3)> {
-        self.maps.as_ref().map_or_else(Vec::new, |m| {
-            m.global.photons().iter().map(|p| (p.position(), p.normal())).collect()
-        })
-    }
-
     /// Christensen 1999, Fig. 1 (b)–(e), from this strategy's own maps (Fig. 1(a), the photon
     /// map itself, is [`Strategy::photons`]). Every image shows radiance on the renders' scale,
     /// so that one tone mapping (the renders' sRGB preview, exposure 0) serves them all:
@@ -561,15 +564,18 @@ impl Strategy for PhotonMapStrategy {
                 })
                 .collect(),
         };
-        let mut figures = vec![Figure {
-            suffix: IRRADIANCE_PNG,
-            image: at_hits(&|hit, _, wo| {
-                maps.global
-                    .irradiance(hit.p, side_normal(hit, wo), &maps.estimate)
-                    .value
-                    * FRAC_1_PI
-            }),
-        }];
+        let mut figures = vec![
+            picture::distribution(scene, &self.photons()),
+            Figure {
+                suffix: IRRADIANCE_PNG,
+                image: FigureImage::Radiance(at_hits(&|hit, _, wo| {
+                    maps.global
+                        .irradiance(hit.p, side_normal(hit, wo), &maps.estimate)
+                        .value
+                        * FRAC_1_PI
+                })),
+            },
+        ];
         if let Some(irr) = &maps.irradiance {
             let photons: Vec<(Vec3, Vec3)> = irr.photons().iter().map(|p| (p.position(), p.normal())).collect();
             let mut sum = vec![Vec3::ZERO; cam.pixel_count()];
@@ -587,12 +593,14 @@ impl Strategy for PhotonMapStrategy {
                 .collect();
             figures.push(Figure {
                 suffix: PRECOMPUTED_PNG,
-                image: Image { width, height, pixels },
+                image: FigureImage::Radiance(Image { width, height, pixels }),
             });
         }
         figures.push(Figure {
             suffix: GATHER_SEES_PNG,
-            image: at_hits(&|hit, bsdf, wo| r.lookup(hit, bsdf, wo, &mut PhotonMapCounters::default())),
+            image: FigureImage::Radiance(at_hits(&|hit, bsdf, wo| {
+                r.lookup(hit, bsdf, wo, &mut PhotonMapCounters::default())
+            })),
         });
         figures
     }
