@@ -25,6 +25,7 @@ pub mod geometry;
 pub mod light;
 pub mod metrics;
 pub mod metropolis;
+pub mod params;
 pub mod path_space;
 pub mod perf;
 pub mod photon;

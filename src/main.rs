@@ -129,8 +129,15 @@ enum Command {
         /// The candidate run directory, e.g. results/ci/<run-id>.
         candidate: PathBuf,
     },
-    /// List the strategies with their parameters and defaults, and the shipped scenes.
-    List,
+    /// List the strategies with every parameter's default (as TOML an experiment file takes),
+    /// range and meaning, and the shipped scenes.
+    List {
+        /// Only this strategy kind.
+        kind: Option<String>,
+        /// The parameter reference as Markdown (docs/strategies.md) instead.
+        #[arg(long)]
+        markdown: bool,
+    },
     /// Write a scene as an equivalent Mitsuba 3 XML scene (for cross-checking with Mitsuba 3).
     ExportMitsuba {
         /// The scene file, e.g. scenes/cornell-spheres.toml.
@@ -432,15 +439,21 @@ fn run_command(command: Command) -> Result<Status> {
             experiment::map_error::run(&exp, probes, probe_spp, probe_seed, &mut std::io::stdout().lock())?;
             Ok(Status::Success)
         }
-        Command::List => {
-            println!("strategies:");
-            for info in photon_bench::strategy::describe() {
-                println!("  {}: {}", info.kind, info.summary);
-                for (k, v) in info.defaults {
-                    println!("    {k} = {v}");
-                }
+        Command::List { kind, markdown } => {
+            let registry = photon_bench::strategy::Registry::builtin();
+            if markdown {
+                print!("{}", photon_bench::strategy::registry::reference_markdown(&registry));
+                return Ok(Status::Success);
             }
-            println!("scenes (scenes/*.toml, scenes/*.xml):");
+            if let Some(kind) = kind {
+                print!("{}", registry.get(&kind)?.toml_listing());
+                return Ok(Status::Success);
+            }
+            println!("# strategies: each table below is valid in an experiment file, with every default");
+            for r in registry.iter() {
+                println!("\n{}", r.toml_listing());
+            }
+            println!("# scenes (scenes/*.toml, scenes/*.xml):");
             let mut names: Vec<String> = std::fs::read_dir("scenes")
                 .map(|d| {
                     d.filter_map(|e| e.ok())
@@ -452,7 +465,7 @@ fn run_command(command: Command) -> Result<Status> {
                 .unwrap_or_default();
             names.sort();
             for n in names {
-                println!("  {n}");
+                println!("#   {n}");
             }
             Ok(Status::Success)
         }

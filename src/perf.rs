@@ -288,7 +288,7 @@ fn measure_mutations(scene: &Scene, seed: u64) -> [f64; crate::metropolis::PROPO
 /// Photons stored per second of `mps`'s Metropolis sampling phase (defaults).
 fn measure_mps_photons(scene: &Scene, seed: u64) -> f64 {
     use crate::strategy::Strategy;
-    let Ok(mut mps) = crate::strategy::mps::Mps::default_params() else {
+    let Ok(mut mps) = crate::strategy::mps::Mps::new(Default::default()) else {
         return f64::NAN;
     };
     let Ok(phases) = mps.prepare(scene, seed) else {

@@ -33,7 +33,7 @@ fn every_strategy_is_bit_identical_across_thread_counts_and_pass_splits() {
         .replace("resolution = [128, 128]", "resolution = [32, 32]");
     let (scene, _) = load_scene_bytes(file, text.as_bytes()).unwrap();
     assert_eq!(scene.camera.width, 32, "the resolution replacement must apply");
-    for &kind in strategy::KINDS {
+    for kind in strategy::kinds() {
         // Preparation too (photon tracing, MPS's chains and the merging of their photons,
         // irradiance caches): on 1 thread and on 3.
         let prepared = |threads: usize| {

@@ -116,8 +116,10 @@ fn parameters_are_checked() {
 
 #[test]
 fn kind_is_registered() {
-    assert!(strategy::KINDS.contains(&"photon_map"));
-    assert!(strategy::describe().iter().any(|k| k.kind == "photon_map"));
+    assert!(strategy::kinds().contains(&"photon_map"));
+    let registry = strategy::Registry::builtin();
+    let specs = (registry.get("photon_map").unwrap().specs)();
+    assert!(specs.iter().any(|s| s.name == "precomputed_irradiance.every"));
 }
 
 /// Prepares and renders in a pool of `threads` threads; returns the image and the counters.

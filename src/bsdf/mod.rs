@@ -24,6 +24,11 @@
 //! Parameters are not validated by the constructors (the structs are plain data); whoever
 //! builds a [`Bsdf`] from user input should call [`Bsdf::validate`], which lists the
 //! requirements of every model (e.g. kd + ks ≤ 1 for Phong, ior > 0 for a dielectric).
+//!
+//! What lives here: one reflectance model per file, each with `eval`, `pdf` and `sample`
+//! (and its chi-square test in `tests.rs`); [`Bsdf`] dispatches over them. What does not: anything
+//! that knows about scenes, lights or paths (a BSDF sees only directions in its local frame and
+//! its own parameters); colour helpers come from [`crate::color`].
 
 mod dielectric;
 mod diffuse_transmission;

@@ -40,13 +40,12 @@
 //! that kind), e.g. a slow strategy rendered at the small spp checkpoints and the time budgets
 //! only. These two keys are budgets, never swept, and no strategy has parameters of those names.
 //!
-//! A parameter whose value is itself a list (say a future `grid = [4, 16]`) is written as a
-//! list of lists: `grid = [[4, 16]]` is the single value `[4, 16]`, and
-//! `grid = [[4, 16], [8, 8]]` sweeps over two values. A list whose elements are all lists is
-//! always a sweep over those lists.
+//! A parameter declared as an array (`photon_guided`'s `grid`) takes a list of numbers as its
+//! single value: `grid = [4, 16]` (or `grid = [[4, 16]]`); `grid = [[4, 16], [8, 8]]` sweeps
+//! over two values. A list whose elements are all lists is always a sweep over those lists.
 
 use crate::error::{Error, Result};
-use crate::strategy::{self, Strategy};
+use crate::strategy::{Registration, Registry, Strategy};
 use crate::util::join_clean;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -85,6 +84,8 @@ fn one() -> u32 {
 /// One strategy of an experiment: one combination of a `[[strategy]]` table's swept values.
 #[derive(Debug, Clone)]
 pub struct StrategySpec {
+    /// The registered kind this table names: how to build it and its declared parameters.
+    pub registration: Registration,
     /// Unique label: the table's `label` (default: the kind), plus `[key=value,…]` of the
     /// swept parameters when there are any.
     pub label: String,
@@ -111,7 +112,7 @@ impl StrategySpec {
 
     /// A fresh strategy object for one run.
     pub fn instantiate(&self) -> Result<Box<dyn Strategy>> {
-        strategy::build(&self.kind, self.params.clone())
+        (self.registration.build)(self.params.clone())
     }
 }
 
@@ -136,14 +137,26 @@ pub struct Experiment {
 }
 
 impl Experiment {
+    /// Loads an experiment whose strategies are the crate's ([`Registry::builtin`]).
     pub fn load(file: &Path) -> Result<Experiment> {
+        Self::load_with(file, &Registry::builtin())
+    }
+
+    /// Loads an experiment whose strategies are those of `registry` (the crate's and any
+    /// registered from outside: `docs/adding-a-strategy.md`).
+    pub fn load_with(file: &Path, registry: &Registry) -> Result<Experiment> {
         let text = std::fs::read_to_string(file)
             .map_err(|e| Error::new(format!("{}: cannot read experiment file: {e}", file.display())))?;
-        Self::parse(file, text)
+        Self::parse_with(file, text, registry)
+    }
+
+    /// Parses and validates experiment text with the crate's strategies.
+    pub fn parse(file: &Path, text: String) -> Result<Experiment> {
+        Self::parse_with(file, text, &Registry::builtin())
     }
 
     /// Parses and validates experiment text; `file` locates relative paths and names errors.
-    pub fn parse(file: &Path, text: String) -> Result<Experiment> {
+    pub fn parse_with(file: &Path, text: String, registry: &Registry) -> Result<Experiment> {
         let at = |msg: String| Error::new(format!("{}: {msg}", file.display()));
         let raw: ExperimentFile = toml::from_str(&text).map_err(|e| at(describe_toml_error(&e, &text)))?;
         let dir = file.parent().unwrap_or(Path::new("."));
@@ -196,7 +209,7 @@ impl Experiment {
             let (own_spp, own_seconds) =
                 strategy_budgets(&mut table, &spp, &seconds).map_err(|e| at(format!("strategy[{i}]{e}")))?;
             let own_scenes = strategy_scenes(&mut table, &stems).map_err(|e| at(format!("strategy[{i}]{e}")))?;
-            for mut spec in strategy_specs(table).map_err(|e| at(format!("strategy[{i}]{e}")))? {
+            for mut spec in strategy_specs(table, registry).map_err(|e| at(format!("strategy[{i}]{e}")))? {
                 spec.spp = own_spp.clone();
                 spec.seconds = own_seconds.clone();
                 spec.scenes = own_scenes.clone();
@@ -341,9 +354,11 @@ fn label_value(v: &toml::Value) -> String {
 }
 
 /// The values a parameter sweeps over, or `None` when it holds a single value: a list sweeps
-/// over its elements (a list of lists over its inner lists).
-fn sweep_values(v: &toml::Value) -> Option<&Vec<toml::Value>> {
+/// over its elements (a list of lists over its inner lists). A parameter declared as an array
+/// (`grid = [4, 16]`) holds a list of scalars as its single value; a list of lists sweeps.
+fn sweep_values(v: &toml::Value, array_typed: bool) -> Option<&Vec<toml::Value>> {
     match v {
+        toml::Value::Array(items) if array_typed && !items.iter().all(|i| i.is_array()) => None,
         toml::Value::Array(items) => Some(items),
         _ => None,
     }
@@ -352,12 +367,16 @@ fn sweep_values(v: &toml::Value) -> Option<&Vec<toml::Value>> {
 /// Splits `kind` and `label` off a strategy table, expands its list-valued parameters into
 /// their cartesian product and checks every combination by building it. Errors start with the
 /// field path after `strategy[i]`.
-fn strategy_specs(table: toml::Table) -> Result<Vec<StrategySpec>, String> {
-    let base = strategy_spec(table)?;
+fn strategy_specs(table: toml::Table, registry: &Registry) -> Result<Vec<StrategySpec>, String> {
+    let base = strategy_spec(table, registry)?;
+    let specs = (base.registration.specs)();
     let swept: Vec<(String, Vec<toml::Value>)> = base
         .params
         .iter()
-        .filter_map(|(k, v)| sweep_values(v).map(|items| (k.clone(), items.clone())))
+        .filter_map(|(k, v)| {
+            let array_typed = specs.iter().any(|s| s.name == *k && s.kind.starts_with('['));
+            sweep_values(v, array_typed).map(|items| (k.clone(), items.clone()))
+        })
         .collect();
     if let Some((key, _)) = swept.iter().find(|(_, items)| items.is_empty()) {
         return Err(format!(
@@ -406,14 +425,14 @@ fn strategy_specs(table: toml::Table) -> Result<Vec<StrategySpec>, String> {
 
 /// Splits `kind` and `label` off a strategy table. Errors start with the field path after
 /// `strategy[i]`.
-fn strategy_spec(mut table: toml::Table) -> Result<StrategySpec, String> {
+fn strategy_spec(mut table: toml::Table, registry: &Registry) -> Result<StrategySpec, String> {
     let kind = match table.remove("kind") {
         Some(toml::Value::String(k)) => k,
         Some(other) => return Err(format!(".kind: expected a string, got {other}")),
         None => {
             return Err(format!(
                 ".kind: missing; expected one of: {}",
-                strategy::KINDS.join(", ")
+                registry.kinds().join(", ")
             ));
         }
     };
@@ -430,7 +449,9 @@ fn strategy_spec(mut table: toml::Table) -> Result<StrategySpec, String> {
         }
         None => kind.clone(),
     };
+    let registration = *registry.get(&kind).map_err(|e| format!(" ({kind}): {}", e.message()))?;
     Ok(StrategySpec {
+        registration,
         label,
         kind,
         params: table,
@@ -594,7 +615,7 @@ mod tests {
         );
         assert_eq!(s.file_stem(), "path-direct-nee-max_depth-4");
         let built = s.instantiate().unwrap().params();
-        assert!(built.contains(&("max_depth", "4".to_string())), "{built:?}");
+        assert!(built.contains(&("max_depth".to_string(), "4".to_string())), "{built:?}");
 
         // A label prefixes the swept values; unswept strategies keep their label.
         let text = format!("{VALID}[[strategy]]\nkind = \"path\"\nlabel = \"uni\"\nrr_depth = [1]\n");
@@ -607,10 +628,18 @@ mod tests {
     fn a_list_of_lists_sweeps_over_list_values() {
         let table: toml::Table = toml::from_str("kind = \"x\"\ngrid = [[4, 16], [8, 8]]\nn = 1").unwrap();
         // `x` is no kind, so check the expansion before validation through sweep_values.
-        let items = sweep_values(&table["grid"]).unwrap();
+        let items = sweep_values(&table["grid"], true).unwrap();
         assert_eq!(items.len(), 2);
         assert_eq!(label_value(&items[0]), "[4, 16]");
-        assert!(sweep_values(&table["n"]).is_none());
+        assert!(sweep_values(&table["n"], false).is_none());
+        // A parameter declared as an array takes a list of scalars as one value.
+        let single: toml::Table = toml::from_str("grid = [4, 16]").unwrap();
+        assert!(sweep_values(&single["grid"], true).is_none());
+        assert_eq!(sweep_values(&single["grid"], false).map(Vec::len), Some(2));
+        let text = format!("{VALID}[[strategy]]\nkind = \"photon_guided\"\ngrid = [4, 16]\n");
+        let e = parse(&text).unwrap();
+        assert_eq!(e.strategies.len(), 2);
+        assert!(e.strategies[1].swept.is_empty());
         assert_eq!(file_stem("g[grid=[4, 16]]"), "g-grid-4-16");
     }
 

@@ -1,4 +1,7 @@
 //! Rays, local frames, robust ray spawning and the acceleration structure.
+//!
+//! What lives here: geometry that knows nothing about materials, lights or light transport.
+//! What does not: shading, sampling decisions, scene loading.
 
 pub mod accel;
 

@@ -26,7 +26,6 @@ pub use sphere_cone::{sample_sphere_cone, sphere_cone_pdf};
 use crate::geometry::Primitive;
 use crate::sampling::{sample_uniform_sphere, sample_uniform_triangle};
 use glam::{Vec2, Vec3};
-use serde::Deserialize;
 use std::f32::consts::PI;
 
 /// Emission attached to a primitive: constant radiance `le` leaving the side its geometric
@@ -91,6 +90,7 @@ impl AreaLight {
     }
 }
 
+crate::declare_choice! {
 /// How next-event estimation picks one light among the scene's emissive primitives.
 ///
 /// `"power"` picks light i with probability Φᵢ / Σ Φ (luminance of the emitted power,
@@ -111,14 +111,17 @@ impl AreaLight {
 /// exactly edge-on, whose contribution ∝ cos θ' vanishes with it). With MIS a zero-probability
 /// light is covered by BSDF sampling anyway, as long as the MIS weight uses the same pmf
 /// ([`selection::LightContext::pdf_w`]).
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum LightSelection {
-    #[default]
-    Power,
-    Local,
+pub enum LightSelection { Power = "power", Local = "local" }
 }
 
+#[allow(clippy::derivable_impls)] // the derives live in `declare_choice!`
+impl Default for LightSelection {
+    fn default() -> Self {
+        Self::Power
+    }
+}
+
+crate::declare_choice! {
 /// How next-event estimation samples a point on a sphere light (triangles are always sampled
 /// uniformly by area).
 ///
@@ -131,12 +134,14 @@ pub enum LightSelection {
 /// unoccluded sphere's irradiance has only the receiver cosine's variance. At points on or
 /// inside the sphere (|c − x|² ≤ 1.0001 r², pbrt's margin) there is no cone and area sampling
 /// is used.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum SphereSampling {
-    #[default]
-    Area,
-    Cone,
+pub enum SphereSampling { Area = "area", Cone = "cone" }
+}
+
+#[allow(clippy::derivable_impls)] // the derives live in `declare_choice!`
+impl Default for SphereSampling {
+    fn default() -> Self {
+        Self::Area
+    }
 }
 
 /// Light sampling options of next-event estimation on eye paths (`path`, `photon_guided`,

@@ -10,6 +10,12 @@
 //!   a = min(1, f_eye,Y(Y) T(X|Y) / (f_eye,Y(X) T(Y|X))); T is that of the chosen proposal,
 //!   except UP and BD, which are combined: T = (P_UP T_UP + P_BD T_BD) / (P_UP + P_BD)
 //!   [Fan et al. 2005, eq. (7)].
+//!
+//! Files: [`params`] (the chain's declared parameters and the proposal mix), [`start`] (B_eye,
+//! first states, user paths: the preparation `mlt` and `mps` share), [`chain`] (state, one step,
+//! tallies), [`proposals`] (the six proposals of Fan et al. 2005 and Veach's multi-chain
+//! perturbation, with their transition densities). What does not live here: what a chain's
+//! states become (image splats in `strategy::mlt`, photons in `strategy::mps`).
 
 mod chain;
 mod params;

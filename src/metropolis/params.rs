@@ -1,7 +1,8 @@
 //! The chain's parameters, shared by `mlt` and `mps`: the proposal mix of Fan et al. 2005,
 //! eq. (5), path length, B_eye samples, chain count and perturbation sizes.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::params::{Range, Spec, Value};
 use serde::Deserialize;
 
 /// Proposal probabilities P_type, Σ = 1 [Fan et al. 2005, eq. (5)]. In an experiment file a
@@ -43,6 +44,52 @@ impl Default for ProposalMix {
     }
 }
 
+/// A proposal mix is one parameter: one column `up=… bd=… …` in result rows (`mc` only when
+/// used, so that the rows of every mix without it read as before), an inline table in TOML.
+impl Value for ProposalMix {
+    fn kind() -> String {
+        "table".to_string()
+    }
+
+    fn check_value(&self, name: &str, _: Option<&Range>) -> Result<()> {
+        self.validate(name)
+    }
+
+    fn toml(&self) -> Option<String> {
+        let items: Vec<String> = Proposal::ALL
+            .iter()
+            .map(|&p| format!("{} = {}", p.name(), Value::toml(&self.get(p)).unwrap_or_default()))
+            .collect();
+        Some(format!("{{ {} }}", items.join(", ")))
+    }
+
+    fn text(&self) -> String {
+        let p = self;
+        let mut text = format!(
+            "up={} bd={} pm={} cp={} lp={} ls={}",
+            p.up, p.bd, p.pm, p.cp, p.lp, p.ls
+        );
+        if p.mc > 0.0 {
+            text += &format!(" mc={}", p.mc);
+        }
+        text
+    }
+
+    fn nested(name: &str) -> Vec<Spec> {
+        let defaults = Self::default();
+        Proposal::ALL
+            .iter()
+            .map(|&p| Spec {
+                name: format!("{name}.{}", p.name()),
+                kind: "float".to_string(),
+                default: Value::toml(&defaults.get(p)),
+                range: Some(Range::closed(0.0, 1.0).of("a probability").to_string()),
+                doc: p.doc(),
+            })
+            .collect()
+    }
+}
+
 /// Number of proposal types.
 pub const PROPOSALS: usize = 7;
 
@@ -72,6 +119,19 @@ impl Proposal {
     pub fn name(self) -> &'static str {
         ["up", "bd", "pm", "cp", "lp", "ls", "mc"][self as usize]
     }
+
+    /// What the proposal does, for the docs.
+    pub fn doc(self) -> &'static str {
+        [
+            "P_UP: user-path proposal, new paths through the scene's user paths (needs bd > 0).",
+            "P_BD: bidirectional mutation, replaces a sub-path [Fan et al. 2005; Veach 1997, §11.4.2].",
+            "P_PM: photon-map perturbation in a cone of half-angle pm_gamma_deg.",
+            "P_CP: caustic perturbation [Veach 1997, §11.4.3].",
+            "P_LP: lens perturbation [Veach 1997, §11.4.3].",
+            "P_LS: lens sub-path mutation (a new eye sub-path).",
+            "P_MC: multi-chain perturbation [Veach 1997, §11.4.4], not in Fan et al. 2005.",
+        ][self as usize]
+    }
 }
 
 impl ProposalMix {
@@ -96,17 +156,17 @@ impl ProposalMix {
         [self.up, self.bd, self.pm, self.cp, self.lp, self.ls, self.mc][p as usize]
     }
 
-    fn validate(&self) -> Result<()> {
+    fn validate(&self, name: &str) -> Result<()> {
         for p in Proposal::ALL {
             let v = self.get(p);
             if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
-                crate::bail!("proposals.{}: expected a probability in [0, 1], got {v}", p.name());
+                crate::bail!("{name}.{}: expected a probability in [0, 1], got {v}", p.name());
             }
         }
         let sum: f64 = Proposal::ALL.iter().map(|&p| self.get(p)).sum();
         if (sum - 1.0).abs() > 1e-6 {
             crate::bail!(
-                "proposals: the probabilities up, bd, pm, cp, lp, ls, mc must sum to 1, got {sum} \
+                "{name}: the probabilities up, bd, pm, cp, lp, ls, mc must sum to 1, got {sum} \
                  (up {}, bd {}, pm {}, cp {}, lp {}, ls {}, mc {})",
                 self.up,
                 self.bd,
@@ -119,7 +179,7 @@ impl ProposalMix {
         }
         if self.up > 0.0 && self.bd == 0.0 {
             crate::bail!(
-                "proposals: up > 0 needs bd > 0 (UP is combined with BD, which gives every path a \
+                "{name}: up > 0 needs bd > 0 (UP is combined with BD, which gives every path a \
                  way back [Fan et al. 2005, eq. (7)])"
             );
         }
@@ -142,48 +202,37 @@ impl ProposalMix {
     }
 }
 
-/// Chain parameters shared by `mlt` and `mps`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct MetropolisParams {
-    pub proposals: ProposalMix,
-    /// Maximum scattering events of a path (edges − 1), as `path`'s `max_depth`.
-    pub max_depth: u32,
-    /// Path-tracing samples (whole-image eye paths) for B_eye and the chains' first states;
-    /// absent: [`B_SAMPLES_PER_CHAIN`] per chain ([`Self::b_samples`]).
-    pub b_samples: Option<u64>,
-    /// Independent chains (fixed, so results do not depend on the thread count). **Decision:
-    /// many short chains (default 8192).** Every chain starts from a path resampled ∝ f/p, so a
-    /// short chain has no start-up bias, and it caps how many iterations a chain stuck in a
-    /// state its proposals cannot leave (L S D S E in `box`) piles onto one photon or pixel:
-    /// 64 → 8192 chains took MPS on box from rms_rel_lum 0.44 to 0.19 and MLT from 5.8 to 0.90
-    /// (README, "Reproducing Fan et al. 2005").
-    pub chains: u32,
-    /// PM cone half-angle γ in degrees (paper: 30).
-    pub pm_gamma_deg: f32,
-    /// LP offsets: r ∈ [r1, r2] with density ∝ 1/r; r1 in pixels, r2 the radius of a disc
-    /// covering this fraction of the image [Veach 1997, §11.4.3: 0.1 pixel and 10 %].
-    pub lens_r1_px: f32,
-    pub lens_r2_fraction: f32,
-    /// CP angles θ ∈ [θ1, θ2] radians with density ∝ 1/θ [Veach 1997: 0.0001, 0.1].
-    pub caustic_theta1: f32,
-    pub caustic_theta2: f32,
-}
-
-impl Default for MetropolisParams {
-    fn default() -> Self {
-        Self {
-            proposals: ProposalMix::default(),
-            max_depth: 16,
-            b_samples: None,
-            chains: 8192,
-            pm_gamma_deg: 30.0,
-            lens_r1_px: 0.1,
-            lens_r2_fraction: 0.1,
-            caustic_theta1: 1e-4,
-            caustic_theta2: 0.1,
-        }
+crate::declare_params! {
+    /// Chain parameters shared by `mlt` and `mps`.
+    pub struct MetropolisParams {
+        /// Proposal probabilities P_type [Fan et al. 2005, eq. (5)]: a table of the non-zero
+        /// ones (missing keys are 0); absent, the paper's Lantern mix ([`ProposalMix`]).
+        proposals: ProposalMix = ProposalMix::default();
+        /// Maximum scattering events of a path (edges − 1), as `path`'s `max_depth`.
+        max_depth: u32 = 16, range Range::int(1, 64);
+        /// Path-tracing samples (whole-image eye paths) for B_eye and the chains' first states;
+        /// absent: [`B_SAMPLES_PER_CHAIN`] per chain ([`MetropolisParams::b_samples`]).
+        b_samples: Option<u64> = None, range Range::int(1, 1_000_000_000);
+        /// Independent chains (fixed, so results do not depend on the thread count). **Decision:
+        /// many short chains (default 8192).** Every chain starts from a path resampled ∝ f/p, so a
+        /// short chain has no start-up bias, and it caps how many iterations a chain stuck in a
+        /// state its proposals cannot leave (L S D S E in `box`) piles onto one photon or pixel:
+        /// 64 → 8192 chains took MPS on box from rms_rel_lum 0.44 to 0.19 and MLT from 5.8 to 0.90
+        /// (docs, "Reproducing Fan et al. 2005").
+        chains: u32 = 8192, range Range::int(1, 65_536);
+        /// PM cone half-angle γ in degrees (paper: 30).
+        pm_gamma_deg: f32 = 30.0, range Range::above_to(0.0, 90.0).of("an angle");
+        /// LP offsets r ∈ [r1, r2] with density ∝ 1/r: r1 in pixels [Veach 1997, §11.4.3: 0.1 pixel].
+        lens_r1_px: f32 = 0.1, range Range::positive().of("a radius");
+        /// LP offsets: r2 is the radius of a disc covering this fraction of the image
+        /// [Veach 1997, §11.4.3: 10 %].
+        lens_r2_fraction: f32 = 0.1, range Range::above_to(0.0, 1.0).of("a fraction");
+        /// CP angles θ ∈ [θ1, θ2] radians with density ∝ 1/θ: θ1 [Veach 1997: 0.0001].
+        caustic_theta1: f32 = 1e-4, range Range::above_to(0.0, 1.0).of("an angle in radians");
+        /// CP angles: θ2 [Veach 1997: 0.1].
+        caustic_theta2: f32 = 0.1, range Range::above_to(0.0, 1.0).of("an angle in radians");
     }
+    check MetropolisParams::rules;
 }
 
 /// Default path-tracing samples per chain for B_eye and the first states. **Decision** (beyond
@@ -203,68 +252,15 @@ impl MetropolisParams {
         self.b_samples.unwrap_or(B_SAMPLES_PER_CHAIN * u64::from(self.chains))
     }
 
-    pub fn validate(&self) -> Result<()> {
-        self.proposals.validate()?;
-        let bad = |what: &str, got: String| Err(Error::new(format!("{what}, got {got}")));
-        if self.max_depth == 0 || self.max_depth > 64 {
-            return bad(
-                "max_depth: expected 1..=64 scattering events",
-                self.max_depth.to_string(),
-            );
-        }
-        if let Some(n) = self.b_samples
-            && (n == 0 || n > 1_000_000_000)
-        {
-            return bad("b_samples: expected 1..=1000000000", n.to_string());
-        }
-        if self.chains == 0 || self.chains > 65_536 {
-            return bad("chains: expected 1..=65536", self.chains.to_string());
-        }
-        if !(self.pm_gamma_deg > 0.0 && self.pm_gamma_deg <= 90.0) {
-            return bad(
-                "pm_gamma_deg: expected an angle in (0, 90]",
-                self.pm_gamma_deg.to_string(),
-            );
-        }
-        if !(self.lens_r1_px > 0.0 && self.lens_r1_px.is_finite()) {
-            return bad("lens_r1_px: expected a positive radius", self.lens_r1_px.to_string());
-        }
-        if !(self.lens_r2_fraction > 0.0 && self.lens_r2_fraction <= 1.0) {
-            return bad(
-                "lens_r2_fraction: expected a fraction in (0, 1]",
-                self.lens_r2_fraction.to_string(),
-            );
-        }
-        if !(self.caustic_theta1 > 0.0 && self.caustic_theta1 < self.caustic_theta2 && self.caustic_theta2 <= 1.0) {
-            return bad(
-                "caustic_theta1, caustic_theta2: expected 0 < θ1 < θ2 ≤ 1 radian",
-                format!("{}, {}", self.caustic_theta1, self.caustic_theta2),
+    /// The rules the ranges cannot express: θ1 < θ2.
+    fn rules(&self) -> Result<()> {
+        if self.caustic_theta1 >= self.caustic_theta2 {
+            crate::bail!(
+                "caustic_theta1, caustic_theta2: expected 0 < θ1 < θ2 ≤ 1 radian, got {}, {}",
+                self.caustic_theta1,
+                self.caustic_theta2
             );
         }
         Ok(())
-    }
-
-    /// The parameters as result-row pairs.
-    pub fn describe(&self) -> Vec<(&'static str, String)> {
-        let p = &self.proposals;
-        let mut proposals = format!(
-            "up={} bd={} pm={} cp={} lp={} ls={}",
-            p.up, p.bd, p.pm, p.cp, p.lp, p.ls
-        );
-        // Only when used, so that the rows of every mix without it read as before.
-        if p.mc > 0.0 {
-            proposals += &format!(" mc={}", p.mc);
-        }
-        vec![
-            ("proposals", proposals),
-            ("max_depth", self.max_depth.to_string()),
-            ("b_samples", self.b_samples().to_string()),
-            ("chains", self.chains.to_string()),
-            ("pm_gamma_deg", self.pm_gamma_deg.to_string()),
-            ("lens_r1_px", self.lens_r1_px.to_string()),
-            ("lens_r2_fraction", self.lens_r2_fraction.to_string()),
-            ("caustic_theta1", self.caustic_theta1.to_string()),
-            ("caustic_theta2", self.caustic_theta2.to_string()),
-        ]
     }
 }

@@ -20,6 +20,9 @@
 //!
 //! Directions at a surface vertex must lie on the sides that the shading frame and the
 //! geometric normal agree on (as in the path tracer); otherwise f = 0.
+//!
+//! What does not live here: the Markov chain and its proposals ([`crate::metropolis`]) and any
+//! strategy; this is the measure-theoretic layer both read.
 
 pub mod walk;
 

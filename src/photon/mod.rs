@@ -22,6 +22,10 @@
 //! let e_fast = fast.irradiance_at(glam::Vec3::ZERO, glam::Vec3::Y, 0.9);
 //! # Ok::<(), photon_bench::Error>(())
 //! ```
+//!
+//! What does not live here: strategies (which decide how many photons, which maps and how
+//! renders read them: [`crate::strategy`]) and anything that writes files; [`picture`] draws the
+//! photon distribution figure a strategy returns.
 
 pub mod estimate;
 pub mod irradiance;

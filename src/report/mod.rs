@@ -1,5 +1,10 @@
 //! Reporting: turns result rows and images into files a researcher reads: the CSV, plots and
 //! the run summary. Like [`crate::metrics`], it never sees a scene.
+//!
+//! What lives here: CSV rows, statistics over seeds, plots, `summary.md`, `index.html`,
+//! `bench compare`. Reports read result rows and the image files of a run directory, nothing
+//! else: no scene, no strategy, no experiment file; what a strategy wants shown it writes as a
+//! figure ([`crate::figure`]).
 
 pub mod bars;
 pub mod compare;

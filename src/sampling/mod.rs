@@ -1,5 +1,9 @@
 //! Sampling: warps from the unit square (each `sample_*` with its `*_pdf` sibling), seeded
 //! random-number streams and their purposes ([`stream`]), discrete distributions and multiple importance sampling weights.
+//!
+//! What lives here: the numerical building blocks every estimator uses; nothing here knows
+//! about scenes, BSDFs or strategies. Every stream purpose of the crate is listed in [`stream`]
+//! and nowhere else.
 
 pub mod chi2;
 pub mod distribution;

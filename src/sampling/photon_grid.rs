@@ -26,14 +26,14 @@ use super::Distribution1D;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, TAU};
 
-/// How the energy given to empty cells is computed from ε.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum EmptyCells {
-    /// All empty cells together receive ε · Φ_total.
-    Shared,
-    /// Every empty cell receives ε · Φ_total.
-    Each,
+crate::declare_choice! {
+    /// How the energy given to empty cells is computed from ε.
+    pub enum EmptyCells {
+        /// All empty cells together receive ε · Φ_total.
+        Shared = "shared",
+        /// Every empty cell receives ε · Φ_total.
+        Each = "each",
+    }
 }
 
 /// Jensen's piecewise-constant pdf over the cosine-warped hemisphere (local frame, +z = n).

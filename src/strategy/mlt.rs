@@ -14,11 +14,12 @@
 //! Parameters: those of [`MetropolisParams`] (proposal mix, `max_depth`, `b_samples`,
 //! `chains`, perturbation sizes); the scene's user paths feed UP.
 
-use super::{Phase, Strategy};
+use super::{Declared, Phase, Strategy};
 use crate::error::Result;
 use crate::film::Film;
 use crate::metropolis::proposals::Context;
 use crate::metropolis::{BEstimate, Chain, MetropolisParams, State, Tally, UserPathInfo, chain_share, prepare_chains};
+use crate::params::Params;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
@@ -26,9 +27,6 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Mutex;
 use std::time::Instant;
-
-pub const SUMMARY: &str =
-    "Metropolis light transport with the MPS proposals, splatting paths (Veach 1997; Fan et al. 2005)";
 
 /// What `prepare` computes.
 struct Prepared {
@@ -57,7 +55,7 @@ pub struct Mlt {
 
 impl Mlt {
     pub fn new(params: MetropolisParams) -> Result<Self> {
-        params.validate()?;
+        params.check("")?;
         Ok(Self {
             params,
             prepared: None,
@@ -66,13 +64,24 @@ impl Mlt {
     }
 }
 
+impl Declared for Mlt {
+    const KIND: &'static str = "mlt";
+    const SUMMARY: &'static str =
+        "Metropolis light transport with the MPS proposals, splatting paths (Veach 1997; Fan et al. 2005)";
+    type Params = MetropolisParams;
+
+    fn new(params: MetropolisParams) -> Result<Self> {
+        Self::new(params)
+    }
+}
+
 impl Strategy for Mlt {
     fn kind(&self) -> &'static str {
-        "mlt"
+        Self::KIND
     }
 
-    fn params(&self) -> Vec<(&'static str, String)> {
-        self.params.describe()
+    fn params(&self) -> Vec<(String, String)> {
+        self.params.columns()
     }
 
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {

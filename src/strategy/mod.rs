@@ -6,17 +6,25 @@
 //! `samples` to every pixel. Because every sample draws from its own stream, seeded by
 //! (seed, pixel, sample index) and the film adds each pixel's samples in order, rendering
 //! 0..64 at once or as 0..16, 16..64 gives the bit-identical image, on any number of threads.
+//!
+//! What lives here: the [`Strategy`] trait, [`render_pixels`], the [`registry`] of kinds and
+//! one module per strategy (a file, or a folder when the method has several parts). What does not:
+//! machinery two strategies share (photon maps in [`crate::photon`], the chain in
+//! [`crate::metropolis`], path space in [`crate::path_space`]), and anything about experiments,
+//! files or reports: a strategy fills a film and returns counters, phases and figures.
 
 pub mod mlt;
 pub mod mps;
 pub mod path;
 pub mod photon_guided;
 pub mod photon_map;
+pub mod registry;
 
 pub use crate::figure::Figure;
 pub use path::Path;
+pub use registry::{Declared, Registration, Registry};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::Ray;
 use crate::sampling::{Rng, stream};
@@ -38,7 +46,7 @@ pub trait Strategy: Send + Sync {
     fn kind(&self) -> &'static str;
 
     /// Every parameter with its value, in a fixed order (recorded with every result row).
-    fn params(&self) -> Vec<(&'static str, String)>;
+    fn params(&self) -> Vec<(String, String)>;
 
     /// Work done once per scene and seed before any sample is taken.
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
@@ -98,85 +106,13 @@ where
     });
 }
 
-/// A parsed strategy description from an experiment file: its kind and the parameter table
-/// (without `kind` and `label`).
+/// Builds a strategy of the crate from its kind and parameter table (without `kind` and
+/// `label`): [`Registry::builtin`]'s [`Registry::build`].
 pub fn build(kind: &str, params: toml::Table) -> Result<Box<dyn Strategy>> {
-    match kind {
-        "path" => Ok(Box::new(Path::new(parse_params::<path::PathParams>(params)?))),
-        "photon_guided" => Ok(Box::new(photon_guided::PhotonGuided::new(parse_params(params)?)?)),
-        "photon_map" => Ok(Box::new(photon_map::PhotonMapStrategy::new(parse_params(params)?)?)),
-        "mlt" => Ok(Box::new(mlt::Mlt::new(parse_params(params)?)?)),
-        "mps" => Ok(Box::new(mps::Mps::from_table(params)?)),
-        other => Err(Error::new(format!(
-            "unknown strategy kind `{other}`; expected one of: {}",
-            KINDS.join(", ")
-        ))),
-    }
+    Registry::builtin().build(kind, params)
 }
 
-/// Every strategy kind, in the order `bench list` shows them.
-pub const KINDS: &[&str] = &["path", "photon_guided", "photon_map", "mlt", "mps"];
-
-/// A strategy kind as `bench list` shows it.
-pub struct KindInfo {
-    pub kind: &'static str,
-    pub summary: &'static str,
-    /// Parameters with their default values.
-    pub defaults: Vec<(&'static str, String)>,
-}
-
-/// Parameters and defaults of every kind, for `bench list`.
-pub fn describe() -> Vec<KindInfo> {
-    let guided = photon_guided::PhotonGuided::new(photon_guided::PhotonGuidedParams::default());
-    let mut kinds = vec![KindInfo {
-        kind: "path",
-        summary: path::SUMMARY,
-        defaults: Path::new(path::PathParams::default()).params(),
-    }];
-    if let Ok(g) = guided {
-        kinds.push(KindInfo {
-            kind: "photon_guided",
-            summary: photon_guided::SUMMARY,
-            defaults: g.params(),
-        });
-    }
-    if let Ok(m) = photon_map::PhotonMapStrategy::new(photon_map::PhotonMapParams::default()) {
-        kinds.push(KindInfo {
-            kind: "photon_map",
-            summary: photon_map::SUMMARY,
-            defaults: m.params(),
-        });
-    }
-    if let Ok(m) = mlt::Mlt::new(crate::metropolis::MetropolisParams::default()) {
-        kinds.push(KindInfo {
-            kind: "mlt",
-            summary: mlt::SUMMARY,
-            defaults: m.params(),
-        });
-    }
-    if let Ok(m) = mps::Mps::default_params() {
-        kinds.push(KindInfo {
-            kind: "mps",
-            summary: mps::SUMMARY,
-            defaults: m.params(),
-        });
-    }
-    kinds
-}
-
-/// Deserialises a parameter table; an error names the offending key when one alone fails
-/// (every parameter struct has defaults, so a single key is a valid table on its own).
-fn parse_params<T: serde::de::DeserializeOwned>(params: toml::Table) -> Result<T> {
-    T::deserialize(toml::Value::Table(params.clone())).map_err(|e| {
-        let culprit = params.iter().find(|(key, value)| {
-            let alone: toml::Table = [((*key).clone(), (*value).clone())].into_iter().collect();
-            T::deserialize(toml::Value::Table(alone)).is_err()
-        });
-        match culprit {
-            Some((key, _)) if !e.message().contains(&format!("`{key}`")) => {
-                Error::new(format!("{key}: {}", e.message()))
-            }
-            _ => Error::new(e.message().to_string()),
-        }
-    })
+/// Every strategy kind of the crate, in the order `bench list` shows them.
+pub fn kinds() -> Vec<&'static str> {
+    Registry::builtin().kinds()
 }

@@ -52,8 +52,9 @@
 //! `precomputed_irradiance`, `irradiance_cache`; `photons` does not apply). `max_depth`
 //! bounds both the chain's paths and the gather's specular bounces.
 
+use super::Declared;
 use super::photon_map::{PhotonMapParams, PhotonMapStrategy};
-use super::{Figure, Phase, Strategy, parse_params};
+use super::{Figure, Phase, Strategy};
 use crate::bsdf::SurfaceKind;
 use crate::bsdf::TransportMode;
 use crate::color::luminance;
@@ -63,6 +64,7 @@ use crate::geometry::{Frame, Ray};
 use crate::metropolis::proposals::Context;
 use crate::metropolis::{BEstimate, Chain, MetropolisParams, State, Tally, incoming};
 use crate::metropolis::{chain_share, prepare_chains};
+use crate::params::{Params, Range, Spec};
 use crate::path_space::walk::{extend_eye_to_diffuse, sample_direction, trace_from};
 use crate::path_space::{Vertex, direction, first_diffuse_from_eye, light_throughput, pdf_eye_side};
 use crate::photon::{EstimateParams, Photon, PhotonMap, flags};
@@ -70,87 +72,118 @@ use crate::sampling::{Rng, latin_hypercube, sample_concentric_disk};
 use crate::scene::{Scene, SurfaceHit};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use serde::Deserialize;
-use std::ops::Range;
 use std::time::Instant;
 
-pub const SUMMARY: &str = "Metropolis photon sampling: photons from a Metropolis chain over light-to-eye paths, final gathering (Fan et al. 2005)";
-
-/// Keys of an `mps` table that belong to the chain.
-const CHAIN_KEYS: &[&str] = &[
-    "proposals",
-    "max_depth",
-    "b_samples",
-    "chains",
-    "pm_gamma_deg",
-    "lens_r1_px",
-    "lens_r2_fraction",
-    "caustic_theta1",
-    "caustic_theta2",
-];
+crate::declare_choice! {
+    /// How a stored path's photon power is computed.
+    pub enum PhotonPower {
+        /// F = B_Y f_map / (N f_Y) exactly as printed [Fan et al. 2005, §3.2]; its expectation
+        /// carries the measure of the eye sub-paths (see the module doc).
+        Paper = "paper",
+        /// F = B_Y f_map q(X_eye, x_s) / (N f_Y q_s(x_s)), normalised by the renderer's own
+        /// importance (see the module doc): unbiased up to the importon density estimate.
+        Importon = "importon",
+    }
+}
 
 /// Largest accepted `mutations` and `importons`.
 const MAX_MUTATIONS: u64 = 10_000_000_000;
 
-/// How a stored path's photon power is computed.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum PhotonPower {
-    /// F = B_Y f_map / (N f_Y) exactly as printed [Fan et al. 2005, §3.2]; its expectation
-    /// carries the measure of the eye sub-paths (see the module doc).
-    Paper,
-    /// F = B_Y f_map q(X_eye, x_s) / (N f_Y q_s(x_s)), normalised by the renderer's own
-    /// importance (see the module doc): unbiased up to the importon density estimate.
-    Importon,
-}
-
-/// Parameters of `mps` besides the chain's and the final gather's.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct MpsParams {
-    /// N, Metropolis iterations over all chains.
-    pub mutations: u64,
-    pub photon_power: PhotonPower,
-    /// Importon paths (camera ray + one gather ray) for the `importon` normalisation.
-    pub importons: u64,
-    /// Importons per density estimate.
-    pub importon_nearest: usize,
-    /// Probe rays measuring the surface area inside each importon density estimate's disc
-    /// ([`surface_area_in_ball`]); 0 divides by the whole disc π r² (the estimate before
-    /// 2026-11-23, biased near surface edges).
-    pub importon_edge_probes: usize,
-    /// Count only importons in sight of the photon ([`DensityRule::sight_lift`]): importance
-    /// does not leak through thin walls.
-    pub importon_in_sight: bool,
-    /// Sum deposits of the same path from different chains into one photon
-    /// ([`merge_repeated_paths`]).
-    pub merge_chains: bool,
-}
-
-impl Default for MpsParams {
-    fn default() -> Self {
-        Self {
-            mutations: 200_000,
-            photon_power: PhotonPower::Importon,
-            importons: 1_000_000,
-            importon_nearest: 64,
-            importon_edge_probes: 16,
-            importon_in_sight: true,
-            merge_chains: true,
-        }
+crate::declare_params! {
+    /// Parameters of `mps` besides the chain's and the final gather's.
+    pub struct MpsParams {
+        /// N, Metropolis iterations over all chains.
+        mutations: u64 = 200_000, range Range::int(1, MAX_MUTATIONS as i64);
+        /// How a stored path's photon power is computed ([`PhotonPower`]).
+        photon_power: PhotonPower = PhotonPower::Importon;
+        /// Importon paths (camera ray + one gather ray) for the `importon` normalisation.
+        importons: u64 = 1_000_000, range Range::int(1, MAX_MUTATIONS as i64);
+        /// Importons per density estimate.
+        importon_nearest: usize = 64, range Range::int(1, 10_000);
+        /// Probe rays measuring the surface area inside each importon density estimate's disc
+        /// ([`surface_area_in_ball`]); 0 divides by the whole disc π r² (the estimate before
+        /// 2026-11-23, biased near surface edges).
+        importon_edge_probes: usize = 16, range Range::int(0, 4096);
+        /// Count only importons in sight of the photon ([`DensityRule::sight_lift`]): importance
+        /// does not leak through thin walls.
+        importon_in_sight: bool = true;
+        /// Sum deposits of the same path from different chains into one photon
+        /// ([`merge_repeated_paths`]).
+        merge_chains: bool = true;
     }
 }
 
-/// Keys of an `mps` table that are [`MpsParams`].
-const MPS_KEYS: &[&str] = &[
-    "mutations",
-    "photon_power",
-    "importons",
-    "importon_nearest",
-    "importon_edge_probes",
-    "importon_in_sight",
-    "merge_chains",
-];
+/// Every parameter of `mps`: its own, the chain's and the final gather's, one table in
+/// experiment files. `photons` does not apply (the photon count follows from `mutations`) and
+/// `max_depth` is shared by the chain and the gather.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MpsConfig {
+    pub params: MpsParams,
+    pub chain: MetropolisParams,
+    pub gather: PhotonMapParams,
+}
+
+impl MpsConfig {
+    /// Gather keys that `mps` does not take or takes from the chain.
+    const NOT_GATHER: [&'static str; 2] = ["photons", "max_depth"];
+}
+
+impl Params for MpsConfig {
+    fn specs() -> Vec<Spec> {
+        let gather = PhotonMapParams::specs().into_iter().filter(|s| {
+            let top = s.name.split('.').next().unwrap_or_default();
+            !Self::NOT_GATHER.contains(&top)
+        });
+        MpsParams::specs()
+            .into_iter()
+            .chain(MetropolisParams::specs())
+            .chain(gather)
+            .collect()
+    }
+
+    fn check(&self, prefix: &str) -> Result<()> {
+        self.params.check(prefix)?;
+        self.chain.check(prefix)?;
+        self.gather.check(prefix)
+    }
+
+    fn columns(&self) -> Vec<(String, String)> {
+        let gather = self.gather.columns().into_iter().filter(|(k, _)| {
+            let top = k.split('.').next().unwrap_or_default();
+            !Self::NOT_GATHER.contains(&top)
+        });
+        self.params
+            .columns()
+            .into_iter()
+            .chain(self.chain.columns())
+            .chain(gather)
+            .collect()
+    }
+
+    /// Splits the table by the declared keys of each part (`max_depth` goes to both the
+    /// chain and the gather).
+    fn from_table(mut table: toml::Table) -> Result<Self> {
+        if table.contains_key("photons") {
+            crate::bail!("photons: does not apply to mps (its photon count follows from `mutations`)");
+        }
+        let take = |table: &mut toml::Table, specs: Vec<Spec>, keep: &[&str]| {
+            let mut out = toml::Table::new();
+            for spec in specs.iter().filter(|s| !s.name.contains('.')) {
+                if let Some(v) = table.get(&spec.name) {
+                    out.insert(spec.name.clone(), v.clone());
+                    if !keep.contains(&spec.name.as_str()) {
+                        table.remove(&spec.name);
+                    }
+                }
+            }
+            out
+        };
+        let params = MpsParams::from_table(take(&mut table, MpsParams::specs(), &[]))?;
+        let chain = MetropolisParams::from_table(take(&mut table, MetropolisParams::specs(), &["max_depth"]))?;
+        let gather = PhotonMapParams::from_table(table)?;
+        Ok(Self { params, chain, gather })
+    }
+}
 
 pub struct Mps {
     pub params: MpsParams,
@@ -180,80 +213,45 @@ struct Stats {
 }
 
 impl Mps {
-    /// Parses an `mps` parameter table: its own keys, the chain's keys, the final gather's keys.
-    pub fn from_table(mut table: toml::Table) -> Result<Self> {
-        if table.contains_key("photons") {
-            crate::bail!("photons: does not apply to mps (its photon count follows from `mutations`)");
-        }
-        let take = |table: &mut toml::Table, keys: &[&str], keep: &[&str]| {
-            let mut out = toml::Table::new();
-            for key in keys {
-                if let Some(v) = table.get(*key) {
-                    out.insert(key.to_string(), v.clone());
-                    if !keep.contains(key) {
-                        table.remove(*key);
-                    }
-                }
-            }
-            out
-        };
-        let params: MpsParams = parse_params(take(&mut table, MPS_KEYS, &[]))?;
-        if params.mutations == 0 || params.mutations > MAX_MUTATIONS {
-            crate::bail!("mutations: expected 1..={MAX_MUTATIONS}, got {}", params.mutations);
-        }
-        if params.importons == 0 || params.importons > MAX_MUTATIONS {
-            crate::bail!("importons: expected 1..={MAX_MUTATIONS}, got {}", params.importons);
-        }
-        if params.importon_nearest == 0 || params.importon_nearest > 10_000 {
-            crate::bail!("importon_nearest: expected 1..=10000, got {}", params.importon_nearest);
-        }
-        if params.importon_edge_probes > 4096 {
-            crate::bail!(
-                "importon_edge_probes: expected 0..=4096, got {}",
-                params.importon_edge_probes
-            );
-        }
-        let chain: MetropolisParams = parse_params(take(&mut table, CHAIN_KEYS, &["max_depth"]))?;
-        chain.validate()?;
-        let gather_params: PhotonMapParams = parse_params(table)?;
+    /// The strategy from checked parameters.
+    pub fn new(config: MpsConfig) -> Result<Self> {
+        config.check("")?;
         Ok(Self {
-            params,
-            chain,
-            gather: PhotonMapStrategy::new(gather_params)?,
+            params: config.params,
+            chain: config.chain,
+            gather: PhotonMapStrategy::new(config.gather)?,
             stats: None,
         })
     }
 
-    /// Default parameters (for `bench list`).
-    pub fn default_params() -> Result<Self> {
-        Self::from_table(toml::Table::new())
+    /// Parses an `mps` parameter table: its own keys, the chain's keys, the final gather's keys.
+    pub fn from_table(table: toml::Table) -> Result<Self> {
+        Self::new(MpsConfig::from_table(table)?)
+    }
+}
+
+impl Declared for Mps {
+    const KIND: &'static str = "mps";
+    const SUMMARY: &'static str = "Metropolis photon sampling: photons from a Metropolis chain over light-to-eye paths, final gathering (Fan et al. 2005)";
+    type Params = MpsConfig;
+
+    fn new(config: MpsConfig) -> Result<Self> {
+        Self::new(config)
     }
 }
 
 impl Strategy for Mps {
     fn kind(&self) -> &'static str {
-        "mps"
+        Self::KIND
     }
 
-    fn params(&self) -> Vec<(&'static str, String)> {
-        let p = &self.params;
-        let mut out = vec![
-            ("mutations", p.mutations.to_string()),
-            ("photon_power", format!("{:?}", p.photon_power).to_lowercase()),
-            ("importons", p.importons.to_string()),
-            ("importon_nearest", p.importon_nearest.to_string()),
-            ("importon_edge_probes", p.importon_edge_probes.to_string()),
-            ("importon_in_sight", p.importon_in_sight.to_string()),
-            ("merge_chains", p.merge_chains.to_string()),
-        ];
-        out.extend(self.chain.describe());
-        out.extend(
-            self.gather
-                .params()
-                .into_iter()
-                .filter(|(k, _)| *k != "photons" && *k != "max_depth"),
-        );
-        out
+    fn params(&self) -> Vec<(String, String)> {
+        MpsConfig {
+            params: self.params.clone(),
+            chain: self.chain.clone(),
+            gather: self.gather.params.clone(),
+        }
+        .columns()
     }
 
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
@@ -305,7 +303,7 @@ impl Strategy for Mps {
         Ok(phases)
     }
 
-    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: std::ops::Range<u32>, film: &mut Film) {
         self.gather.render_maps(scene, seed, samples, film);
     }
 

@@ -2,23 +2,8 @@
 //! estimation and multiple importance sampling (power heuristic) [Veach 1997, ch. 9], with
 //! Russian roulette. The baseline every paper in this harness compares against.
 //!
-//! Parameters (all optional):
-//! - `max_depth` (default 16): maximum number of scattering events; 0 shows only emitters seen
-//!   directly. (Mitsuba's `max_depth` counts segments: its 5 is our 4.)
-//! - `rr_depth` (default 3): Russian roulette starts after this many scattering events.
-//! - `roulette` (default `"throughput"`): what the survival probability follows, the path
-//!   throughput or the vertex's albedo ([`Roulette`]).
-//! - `direct` (default `"mis"`): how emitted light is gathered — `"mis"` combines light
-//!   sampling and BSDF sampling with the power heuristic; `"nee"` uses light sampling only;
-//!   `"bsdf"` only counts emitters hit by BSDF-sampled rays.
-//! - `bsdf_sampling` (default `"importance"`): `"uniform"` samples non-delta BSDFs uniformly
-//!   over the hemisphere of `wo` (the sphere for transmitting BSDFs) instead of by their own
-//!   pdf, the way Jensen 1995 made its reference images.
-//! - `light_selection` (default `"power"`): how next-event estimation picks a light —
-//!   ∝ emitted power, or `"local"`: ∝ an estimate of each light's unoccluded contribution at
-//!   the shading point ([`LightSelection`]).
-//! - `sphere_light_sampling` (default `"area"`): sphere lights sampled uniformly by area, or
-//!   `"cone"`: uniformly in the cone they subtend at the shading point ([`SphereSampling`]).
+//! Parameters: [`PathParams`] (all optional; `bench list path` prints them with their
+//! defaults and ranges).
 //!
 //! **Decision: defaults `"power"` and `"area"`.** At equal samples neither option was worse on
 //! any shipped scene (README), but both cost time per sample — local selection +20 % on
@@ -27,30 +12,27 @@
 //! ignores occlusion, so it is not never-worse. The old defaults also keep every committed
 //! result and the regression baseline bit-identical; experiments opt in.
 
-use super::{Strategy, render_pixels};
+use super::{Declared, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
+use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray};
 use crate::light::selection::{LightContext, LocalWeights};
 use crate::light::{LightSampling, LightSelection, PointPdf, Receiver, SphereSampling};
+use crate::params::{Params, Range};
 use crate::sampling::{Rng, power_heuristic, sample_uniform_hemisphere, sample_uniform_sphere, uniform_sphere_pdf};
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
-use serde::Deserialize;
 use std::f32::consts::FRAC_1_PI;
-use std::ops::Range;
 
-pub const SUMMARY: &str = "path tracing with BSDF importance sampling, NEE and MIS (Veach 1997)";
-
-/// How light from emitters is gathered at each vertex.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Direct {
-    Mis,
-    Nee,
-    Bsdf,
+crate::declare_choice! {
+    /// How light from emitters is gathered at each vertex: `"mis"` combines light sampling and
+    /// BSDF sampling with the power heuristic; `"nee"` uses light sampling only; `"bsdf"` only
+    /// counts emitters hit by BSDF-sampled rays.
+    pub enum Direct { Mis = "mis", Nee = "nee", Bsdf = "bsdf" }
 }
 
+crate::declare_choice! {
 /// What Russian roulette's survival probability follows, once a path is past `rr_depth`.
 ///
 /// `"throughput"` continues with q = min(0.95, max channel of the path throughput β), the
@@ -62,44 +44,37 @@ pub enum Direct {
 /// eq. (11), which is small exactly for directions towards bright light, so throughput roulette
 /// kills the paths guiding aimed best (measured on `cornell-empty`, README: it undoes most of
 /// the variance reduction); albedo roulette does not see s.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Roulette {
-    Throughput,
-    Albedo,
+    pub enum Roulette { Throughput = "throughput", Albedo = "albedo" }
 }
 
-/// How non-delta BSDFs choose the next direction.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum BsdfSampling {
-    Importance,
-    Uniform,
+crate::declare_choice! {
+    /// How non-delta BSDFs choose the next direction: `"uniform"` samples them uniformly over
+    /// the hemisphere of `wo` (the sphere for transmitting BSDFs) instead of by their own pdf,
+    /// the way Jensen 1995 made its reference images.
+    pub enum BsdfSampling { Importance = "importance", Uniform = "uniform" }
 }
 
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct PathParams {
-    pub max_depth: u32,
-    pub rr_depth: u32,
-    pub roulette: Roulette,
-    pub direct: Direct,
-    pub bsdf_sampling: BsdfSampling,
-    pub light_selection: LightSelection,
-    pub sphere_light_sampling: SphereSampling,
-}
-
-impl Default for PathParams {
-    fn default() -> Self {
-        Self {
-            max_depth: 16,
-            rr_depth: 3,
-            roulette: Roulette::Throughput,
-            direct: Direct::Mis,
-            bsdf_sampling: BsdfSampling::Importance,
-            light_selection: LightSelection::Power,
-            sphere_light_sampling: SphereSampling::Area,
-        }
+crate::declare_params! {
+    /// Parameters of `kind = "path"`.
+    pub struct PathParams {
+        /// Maximum number of scattering events; 0 shows only emitters seen directly.
+        /// (Mitsuba's `max_depth` counts segments: its 5 is our 4.)
+        max_depth: u32 = 16, range Range::int(0, 1024);
+        /// Russian roulette starts after this many scattering events.
+        rr_depth: u32 = 3, range Range::int(0, 1024);
+        /// What Russian roulette's survival probability follows: the path throughput or the
+        /// vertex's albedo ([`Roulette`]).
+        roulette: Roulette = Roulette::Throughput;
+        /// How emitted light is gathered ([`Direct`]).
+        direct: Direct = Direct::Mis;
+        /// How non-delta BSDFs choose the next direction ([`BsdfSampling`]).
+        bsdf_sampling: BsdfSampling = BsdfSampling::Importance;
+        /// How next-event estimation picks a light: ∝ emitted power, or ∝ an estimate of each
+        /// light's unoccluded contribution at the shading point ([`LightSelection`]).
+        light_selection: LightSelection = LightSelection::Power;
+        /// Sphere lights sampled uniformly by area, or uniformly in the cone they subtend at
+        /// the shading point ([`SphereSampling`]).
+        sphere_light_sampling: SphereSampling = SphereSampling::Area;
     }
 }
 
@@ -113,14 +88,6 @@ impl PathParams {
     }
 }
 
-/// The `params()` entries of the light sampling options, shared by every strategy that has them.
-pub fn light_sampling_params(l: LightSampling) -> [(&'static str, String); 2] {
-    [
-        ("light_selection", format!("{:?}", l.selection).to_lowercase()),
-        ("sphere_light_sampling", format!("{:?}", l.sphere).to_lowercase()),
-    ]
-}
-
 /// The path-tracing strategy.
 pub struct Path {
     pub params: PathParams,
@@ -132,25 +99,27 @@ impl Path {
     }
 }
 
+impl Declared for Path {
+    const KIND: &'static str = "path";
+    const SUMMARY: &'static str = "path tracing with BSDF importance sampling, NEE and MIS (Veach 1997)";
+    type Params = PathParams;
+
+    fn new(params: PathParams) -> Result<Self> {
+        params.check("")?;
+        Ok(Self::new(params))
+    }
+}
+
 impl Strategy for Path {
     fn kind(&self) -> &'static str {
-        "path"
+        Self::KIND
     }
 
-    fn params(&self) -> Vec<(&'static str, String)> {
-        let p = &self.params;
-        let mut params = vec![
-            ("max_depth", p.max_depth.to_string()),
-            ("rr_depth", p.rr_depth.to_string()),
-            ("roulette", format!("{:?}", p.roulette).to_lowercase()),
-            ("direct", format!("{:?}", p.direct).to_lowercase()),
-            ("bsdf_sampling", format!("{:?}", p.bsdf_sampling).to_lowercase()),
-        ];
-        params.extend(light_sampling_params(p.light_sampling()));
-        params
+    fn params(&self) -> Vec<(String, String)> {
+        self.params.columns()
     }
 
-    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: std::ops::Range<u32>, film: &mut Film) {
         render_pixels(scene, seed, samples, film, |ray, rng| {
             radiance(scene, &self.params, *ray, rng)
         });

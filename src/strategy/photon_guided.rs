@@ -61,7 +61,8 @@
 //! surface facing the same way (stored normal · n > 0), so light on the other side of a thin
 //! wall never steers the pdf.
 
-use super::path::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, light_sampling_params, trace};
+use super::Declared;
+use super::path::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, trace};
 use super::photon_map::Precomputed;
 use super::{Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
@@ -70,6 +71,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::geometry::Frame;
 use crate::light::{LightSampling, LightSelection, SphereSampling};
+use crate::params::{Params, Range};
 use crate::photon::{CausticStorage, KdPoint, KdTree, Neighbour, Photon, TraceParams, trace_photons};
 use crate::resources;
 use crate::sampling::Rng;
@@ -77,92 +79,44 @@ use crate::sampling::photon_grid::{EmptyCells, PhotonGrid};
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 use rayon::prelude::*;
-use serde::Deserialize;
 use std::cell::RefCell;
-use std::ops::Range;
 use std::time::Instant;
 
-pub const SUMMARY: &str = "path tracing guided at diffuse vertices by a photon-built pdf (Jensen 1995)";
-
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct PhotonGuidedParams {
-    pub photons: u64,
-    pub nearest: usize,
-    pub grid: [usize; 2],
-    pub epsilon: f32,
-    pub empty_cells: EmptyCells,
-    pub max_radius: f32,
-    pub bsdf_mixture: f32,
-    pub glossy: bool,
-    pub precomputed_pdfs: Option<Precomputed>,
-    pub max_depth: u32,
-    pub rr_depth: u32,
-    pub roulette: Roulette,
-    pub direct: Direct,
-    pub light_selection: LightSelection,
-    pub sphere_light_sampling: SphereSampling,
-}
-
-impl Default for PhotonGuidedParams {
-    fn default() -> Self {
-        Self {
-            photons: 60_000,
-            nearest: 50,
-            grid: [4, 16],
-            epsilon: 0.01,
-            empty_cells: EmptyCells::Each,
-            max_radius: f32::INFINITY,
-            bsdf_mixture: 0.0,
-            glossy: false,
-            precomputed_pdfs: None,
-            max_depth: 16,
-            rr_depth: 3,
-            roulette: Roulette::Albedo,
-            direct: Direct::Mis,
-            light_selection: LightSelection::Power,
-            sphere_light_sampling: SphereSampling::Area,
-        }
-    }
-}
-
-impl PhotonGuidedParams {
-    fn validate(&self) -> Result<()> {
-        let bad = |what: &str, got: String| Err(Error::new(format!("{what}, got {got}")));
-        if self.photons == 0 || self.photons > 100_000_000 {
-            return bad(
-                "photons: expected 1..=100000000 stored photons",
-                self.photons.to_string(),
-            );
-        }
-        if self.nearest == 0 || self.nearest > 10_000 {
-            return bad("nearest: expected 1..=10000", self.nearest.to_string());
-        }
-        if self.grid.iter().any(|&g| g == 0 || g > 1024) {
-            return bad(
-                "grid: expected [θ cells, φ cells], each in 1..=1024",
-                format!("{:?}", self.grid),
-            );
-        }
-        if !(0.0..=1.0).contains(&self.epsilon) {
-            return bad("epsilon: expected a share in [0, 1]", self.epsilon.to_string());
-        }
-        if self.max_radius.is_nan() || self.max_radius <= 0.0 {
-            return bad(
-                "max_radius: expected a positive distance (or inf)",
-                self.max_radius.to_string(),
-            );
-        }
-        if !(0.0..=1.0).contains(&self.bsdf_mixture) {
-            return bad(
-                "bsdf_mixture: expected a probability in [0, 1]",
-                self.bsdf_mixture.to_string(),
-            );
-        }
-        if let Some(pre) = &self.precomputed_pdfs {
-            pre.validate("precomputed_pdfs")?;
-        }
-        Ok(())
+crate::declare_params! {
+    /// Parameters of `kind = "photon_guided"`; the defaults reproduce Jensen 1995.
+    pub struct PhotonGuidedParams {
+        /// Np, photons *stored* in the map (indirect only: reflected at least once) [§3].
+        photons: u64 = 60_000, range Range::int(1, 100_000_000);
+        /// N, photons per pdf.
+        nearest: usize = 50, range Range::int(1, 10_000);
+        /// θ-intervals × φ-intervals of the grid over the cosine-warped hemisphere.
+        grid: [usize; 2] = [4, 16], range Range::int(1, 1024);
+        /// ε, the fraction of the total energy given to empty cells (see `empty_cells`).
+        epsilon: f32 = 0.01, range Range::closed(0.0, 1.0).of("a share");
+        /// Whether each empty cell or all of them together receive ε · Φ_total (module doc).
+        empty_cells: EmptyCells = EmptyCells::Each;
+        /// Photons are searched within this distance (scene units); the paper: unbounded.
+        max_radius: f32 = f32::INFINITY, range Range::above_to(0.0, f64::INFINITY).of("a distance");
+        /// α, probability of sampling the BSDF instead of the grid (beyond the paper; 0 is
+        /// the paper's method).
+        bsdf_mixture: f32 = 0.0, range Range::closed(0.0, 1.0).of("a probability");
+        /// Also guide glossy vertices with the grid of f_r · ΔΦ (beyond the paper).
+        glossy: bool = false;
+        /// Jensen's pdf precomputed at every k-th photon, looked up per vertex (beyond the
+        /// paper; absent: the paper's method).
+        precomputed_pdfs: Option<Precomputed> = None;
+        /// Maximum number of scattering events (as `path`).
+        max_depth: u32 = 16, range Range::int(0, 1024);
+        /// Russian roulette starts after this many scattering events.
+        rr_depth: u32 = 3, range Range::int(0, 1024);
+        /// What Russian roulette follows; albedo, as 1995-era path tracers (module doc).
+        roulette: Roulette = Roulette::Albedo;
+        /// How emitted light is gathered (as `path`).
+        direct: Direct = Direct::Mis;
+        /// How next-event estimation picks a light (as `path`).
+        light_selection: LightSelection = LightSelection::Power;
+        /// How next-event estimation samples sphere lights (as `path`).
+        sphere_light_sampling: SphereSampling = SphereSampling::Area;
     }
 }
 
@@ -212,7 +166,7 @@ pub struct PhotonGuided {
 
 impl PhotonGuided {
     pub fn new(params: PhotonGuidedParams) -> Result<Self> {
-        params.validate()?;
+        params.check("")?;
         Ok(Self {
             params,
             map: None,
@@ -271,32 +225,23 @@ fn trace_indirect(scene: &Scene, stored: u64, seed: u64) -> Result<KdTree<GuideP
     }
 }
 
+impl Declared for PhotonGuided {
+    const KIND: &'static str = "photon_guided";
+    const SUMMARY: &'static str = "path tracing guided at diffuse vertices by a photon-built pdf (Jensen 1995)";
+    type Params = PhotonGuidedParams;
+
+    fn new(params: PhotonGuidedParams) -> Result<Self> {
+        Self::new(params)
+    }
+}
+
 impl Strategy for PhotonGuided {
     fn kind(&self) -> &'static str {
-        "photon_guided"
+        Self::KIND
     }
 
-    fn params(&self) -> Vec<(&'static str, String)> {
-        let p = &self.params;
-        let (every, normal_dot) = Precomputed::columns(p.precomputed_pdfs.as_ref());
-        let mut params = vec![
-            ("photons", p.photons.to_string()),
-            ("nearest", p.nearest.to_string()),
-            ("grid", format!("{}x{}", p.grid[0], p.grid[1])),
-            ("epsilon", p.epsilon.to_string()),
-            ("empty_cells", format!("{:?}", p.empty_cells).to_lowercase()),
-            ("max_radius", p.max_radius.to_string()),
-            ("bsdf_mixture", p.bsdf_mixture.to_string()),
-            ("glossy", p.glossy.to_string()),
-            ("precomputed_every", every),
-            ("precomputed_normal_dot", normal_dot),
-            ("max_depth", p.max_depth.to_string()),
-            ("rr_depth", p.rr_depth.to_string()),
-            ("roulette", format!("{:?}", p.roulette).to_lowercase()),
-            ("direct", format!("{:?}", p.direct).to_lowercase()),
-        ];
-        params.extend(light_sampling_params(self.light_sampling()));
-        params
+    fn params(&self) -> Vec<(String, String)> {
+        self.params.columns()
     }
 
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
@@ -321,7 +266,7 @@ impl Strategy for PhotonGuided {
         Ok(phases)
     }
 
-    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: std::ops::Range<u32>, film: &mut Film) {
         let Some(map) = &self.map else { return };
         let p = &self.params;
         let walk = Walk {

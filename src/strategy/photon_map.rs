@@ -77,14 +77,16 @@
 //! (`cache_misses`). A record's gather is the final gather's (its own `gather_rays`
 //! cosine-distributed rays, secondary gathers for short ones), E = π/G Σ L_j.
 
-use super::path::{BsdfSampling, Direct, estimate_direct, light_sampling_params, receiver};
+use super::Declared;
+use super::path::{BsdfSampling, Direct, estimate_direct, receiver};
 use super::{Figure, Phase, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, TransportMode};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::figure::{FigureImage, GATHER_SEES_PNG, IRRADIANCE_PNG, PRECOMPUTED_PNG};
 use crate::film::{Film, Image};
 use crate::geometry::{Ray, spawn_ray};
 use crate::light::{LightSampling, LightSelection, SphereSampling};
+use crate::params::{Params, Range};
 use crate::photon::irradiance_cache::{CacheRecord, Gradients, IrradianceCache, PolarStrata, gradients};
 use crate::photon::picture::{self, visible_pixels};
 use crate::photon::{
@@ -95,121 +97,82 @@ use crate::sampling::{Rng, latin_hypercube, sample_cosine_hemisphere, stream};
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use serde::Deserialize;
 use std::f32::consts::{FRAC_1_PI, PI};
-use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-pub const SUMMARY: &str = "photon mapping with final gathering, optional precomputed irradiance or irradiance caching (Jensen 1996; Christensen 1999; Ward 1988)";
-
-/// Christensen's precomputed irradiance.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct Precomputed {
-    pub every: usize,
-    pub normal_dot: f32,
+crate::declare_params! {
+    /// Precomputed irradiance [Christensen 1999, §2.2] (`photon_map`) or pdfs (`photon_guided`)
+    /// at every k-th photon.
+    pub struct Precomputed {
+        /// k: every k-th photon of the global map holds a precomputed value.
+        every: usize = 4, range Range::int(1, 1_000_000);
+        /// A lookup uses the nearest holder whose normal n_p has n_p · n > this.
+        normal_dot: f32 = 0.9, range Range::closed(-1.0, 1.0).of("a cosine");
+    }
 }
 
-impl Precomputed {
-    /// Checks `every` and `normal_dot`; `field` names the table in the message.
-    pub fn validate(&self, field: &str) -> Result<()> {
-        if self.every == 0 || self.every > 1_000_000 {
-            return Err(Error::new(format!(
-                "{field}.every: expected 1..=1000000, got {}",
-                self.every
-            )));
-        }
-        if !(-1.0..=1.0).contains(&self.normal_dot) {
-            return Err(Error::new(format!(
-                "{field}.normal_dot: expected a cosine in [-1, 1], got {}",
-                self.normal_dot
-            )));
+crate::declare_params! {
+    /// Ward's irradiance cache at the camera's first Lambertian hits [Ward 1988].
+    pub struct IrradianceCaching {
+        /// Ward's a: records with weight w > 1/a are interpolated.
+        error: f32 = 0.2, range Range::above_to(0.0, 10.0).of("Ward's a");
+        /// Lower clamp of a record's harmonic mean distance R (absent: 2 % of the diagonal).
+        min_distance: Option<f32> = None, range Range::positive().of("a distance");
+        /// Upper clamp of R (absent: 50 % of the diagonal).
+        max_distance: Option<f32> = None, range Range::positive().of("a distance");
+        /// Final-gather rays of a record: records are few, and one noisy record shows as a
+        /// blotch over its whole valid region.
+        gather_rays: u32 = 256, range Range::int(1, 65_536);
+        /// Estimate and interpolate with irradiance gradients [Ward & Heckbert 1992] (false:
+        /// Ward 1988's plain weighted average).
+        gradients: bool = false;
+    }
+    check IrradianceCaching::rules;
+}
+
+impl IrradianceCaching {
+    /// min_distance ≤ max_distance.
+    fn rules(&self) -> Result<()> {
+        if let (Some(lo), Some(hi)) = (self.min_distance, self.max_distance)
+            && lo > hi
+        {
+            crate::bail!("min_distance: expected at most max_distance ({hi}), got {lo}");
         }
         Ok(())
     }
-
-    /// The `(every, normal_dot)` columns of a result row ("none" when absent).
-    pub fn columns(pre: Option<&Self>) -> (String, String) {
-        match pre {
-            Some(p) => (p.every.to_string(), p.normal_dot.to_string()),
-            None => ("none".to_string(), "none".to_string()),
-        }
-    }
 }
 
-impl Default for Precomputed {
-    fn default() -> Self {
-        Self {
-            every: 4,
-            normal_dot: 0.9,
-        }
-    }
-}
-
-/// Ward's irradiance cache at the camera's first Lambertian hits.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct IrradianceCaching {
-    /// Ward's a: records with weight w > 1/a are interpolated.
-    pub error: f32,
-    /// Lower clamp of a record's harmonic mean distance R (default: 2 % of the diagonal).
-    pub min_distance: Option<f32>,
-    /// Upper clamp of R (default: 50 % of the diagonal).
-    pub max_distance: Option<f32>,
-    /// Final-gather rays of a record (default 256): records are few, and one noisy record
-    /// shows as a blotch over its whole valid region.
-    pub gather_rays: u32,
-    /// Estimate and interpolate with irradiance gradients [Ward & Heckbert 1992] (default
-    /// false: Ward 1988's plain weighted average).
-    pub gradients: bool,
-}
-
-impl Default for IrradianceCaching {
-    fn default() -> Self {
-        Self {
-            error: 0.2,
-            min_distance: None,
-            max_distance: None,
-            gather_rays: 256,
-            gradients: false,
-        }
-    }
-}
-
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct PhotonMapParams {
-    pub photons: u64,
-    pub nearest: usize,
-    pub caustic_nearest: usize,
-    pub max_radius: Option<f32>,
-    pub gather_rays: u32,
-    pub secondary_gather_rays: u32,
-    pub short_gather: Option<f32>,
-    pub max_depth: u32,
-    pub precomputed_irradiance: Option<Precomputed>,
-    pub irradiance_cache: Option<IrradianceCaching>,
-    pub light_selection: LightSelection,
-    pub sphere_light_sampling: SphereSampling,
-}
-
-impl Default for PhotonMapParams {
-    fn default() -> Self {
-        Self {
-            photons: 200_000,
-            nearest: 50,
-            caustic_nearest: 50,
-            max_radius: None,
-            gather_rays: 64,
-            secondary_gather_rays: 12,
-            short_gather: None,
-            max_depth: 16,
-            precomputed_irradiance: None,
-            irradiance_cache: None,
-            light_selection: LightSelection::Power,
-            sphere_light_sampling: SphereSampling::Area,
-        }
+crate::declare_params! {
+    /// Parameters of `kind = "photon_map"`.
+    pub struct PhotonMapParams {
+        /// Photon paths emitted from the lights [Jensen 1996].
+        photons: u64 = 200_000, range Range::int(1, 100_000_000);
+        /// N, photons per global-map radiance estimate.
+        nearest: usize = 50, range Range::int(1, 10_000);
+        /// Photons per caustic-map radiance estimate.
+        caustic_nearest: usize = 50, range Range::int(1, 10_000);
+        /// Search radius bound of every estimate (absent: 5 % of the scene's diagonal).
+        max_radius: Option<f32> = None, range Range::positive().of("a distance");
+        /// Final-gather rays per camera-path hit [Christensen 1999, §2.3].
+        gather_rays: u32 = 64, range Range::int(1, 65_536);
+        /// Rays of a secondary gather where a gather ray lands too close (0: none).
+        secondary_gather_rays: u32 = 12, range Range::int(0, 65_536);
+        /// Gather rays shorter than this distance gather again instead of reading the map
+        /// (absent: no secondary gathers by distance).
+        short_gather: Option<f32> = None, range Range::at_least(0.0).of("a distance");
+        /// Maximum scattering events of camera paths through delta surfaces and of photon paths.
+        max_depth: u32 = 16, range Range::int(0, 1024);
+        /// Irradiance precomputed at every k-th photon [Christensen 1999] (absent: full
+        /// radiance estimates).
+        precomputed_irradiance: Option<Precomputed> = None;
+        /// Ward's irradiance cache at the first Lambertian hits (absent: a final gather at
+        /// every hit).
+        irradiance_cache: Option<IrradianceCaching> = None;
+        /// How the direct term picks a light (as `path`).
+        light_selection: LightSelection = LightSelection::Power;
+        /// How the direct term samples sphere lights (as `path`).
+        sphere_light_sampling: SphereSampling = SphereSampling::Area;
     }
 }
 
@@ -220,82 +183,6 @@ impl PhotonMapParams {
             selection: self.light_selection,
             sphere: self.sphere_light_sampling,
         }
-    }
-}
-
-impl PhotonMapParams {
-    fn validate(&self) -> Result<()> {
-        let bad = |what: &str, got: String| Err(Error::new(format!("{what}, got {got}")));
-        if self.photons == 0 || self.photons > 100_000_000 {
-            return bad(
-                "photons: expected 1..=100000000 emitted paths",
-                self.photons.to_string(),
-            );
-        }
-        if self.nearest == 0 || self.nearest > 10_000 {
-            return bad("nearest: expected 1..=10000", self.nearest.to_string());
-        }
-        if self.caustic_nearest == 0 || self.caustic_nearest > 10_000 {
-            return bad("caustic_nearest: expected 1..=10000", self.caustic_nearest.to_string());
-        }
-        if let Some(r) = self.max_radius
-            && !(r.is_finite() && r > 0.0)
-        {
-            return bad("max_radius: expected a positive finite distance", r.to_string());
-        }
-        if self.gather_rays == 0 || self.gather_rays > 65_536 {
-            return bad("gather_rays: expected 1..=65536", self.gather_rays.to_string());
-        }
-        if self.secondary_gather_rays > 65_536 {
-            return bad(
-                "secondary_gather_rays: expected 0..=65536",
-                self.secondary_gather_rays.to_string(),
-            );
-        }
-        if let Some(d) = self.short_gather
-            && !(d.is_finite() && d >= 0.0)
-        {
-            return bad("short_gather: expected a distance ≥ 0", d.to_string());
-        }
-        if self.max_depth > 1024 {
-            return bad("max_depth: expected 0..=1024", self.max_depth.to_string());
-        }
-        if let Some(p) = &self.precomputed_irradiance {
-            p.validate("precomputed_irradiance")?;
-        }
-        if let Some(ic) = &self.irradiance_cache {
-            if !(ic.error.is_finite() && ic.error > 0.0 && ic.error <= 10.0) {
-                return bad(
-                    "irradiance_cache.error: expected Ward's a in (0, 10]",
-                    ic.error.to_string(),
-                );
-            }
-            for (what, d) in [("min_distance", ic.min_distance), ("max_distance", ic.max_distance)] {
-                if let Some(d) = d
-                    && !(d.is_finite() && d > 0.0)
-                {
-                    return bad(
-                        &format!("irradiance_cache.{what}: expected a positive finite distance"),
-                        d.to_string(),
-                    );
-                }
-            }
-            if ic.gather_rays == 0 || ic.gather_rays > 65_536 {
-                return bad(
-                    "irradiance_cache.gather_rays: expected 1..=65536",
-                    ic.gather_rays.to_string(),
-                );
-            }
-            if let (Some(lo), Some(hi)) = (ic.min_distance, ic.max_distance)
-                && lo > hi
-            {
-                return bad(
-                    "irradiance_cache.min_distance: expected at most max_distance",
-                    format!("{lo} > {hi}"),
-                );
-            }
-        }
-        Ok(())
     }
 }
 
@@ -393,7 +280,7 @@ pub fn scene_diagonal(scene: &Scene) -> f32 {
 
 impl PhotonMapStrategy {
     pub fn new(params: PhotonMapParams) -> Result<Self> {
-        params.validate()?;
+        params.check("")?;
         Ok(Self {
             params,
             maps: None,
@@ -429,47 +316,23 @@ impl PhotonMapStrategy {
     }
 }
 
+impl Declared for PhotonMapStrategy {
+    const KIND: &'static str = "photon_map";
+    const SUMMARY: &'static str = "photon mapping with final gathering, optional precomputed irradiance or irradiance caching (Jensen 1996; Christensen 1999; Ward 1988)";
+    type Params = PhotonMapParams;
+
+    fn new(params: PhotonMapParams) -> Result<Self> {
+        Self::new(params)
+    }
+}
+
 impl Strategy for PhotonMapStrategy {
     fn kind(&self) -> &'static str {
-        "photon_map"
+        Self::KIND
     }
 
-    fn params(&self) -> Vec<(&'static str, String)> {
-        let p = &self.params;
-        let opt = |v: Option<f32>| v.map_or("auto".to_string(), |v| v.to_string());
-        let (every, normal_dot) = Precomputed::columns(p.precomputed_irradiance.as_ref());
-        let mut params = vec![
-            ("photons", p.photons.to_string()),
-            ("nearest", p.nearest.to_string()),
-            ("caustic_nearest", p.caustic_nearest.to_string()),
-            ("max_radius", opt(p.max_radius)),
-            ("gather_rays", p.gather_rays.to_string()),
-            ("secondary_gather_rays", p.secondary_gather_rays.to_string()),
-            ("short_gather", opt(p.short_gather)),
-            ("max_depth", p.max_depth.to_string()),
-            ("precomputed_every", every),
-            ("precomputed_normal_dot", normal_dot),
-        ];
-        let cache = match &p.irradiance_cache {
-            Some(ic) => [
-                ic.error.to_string(),
-                opt(ic.min_distance),
-                opt(ic.max_distance),
-                ic.gather_rays.to_string(),
-                ic.gradients.to_string(),
-            ],
-            None => ["none", "none", "none", "none", "none"].map(String::from),
-        };
-        let [error, min_distance, max_distance, rays, gradients] = cache;
-        params.extend([
-            ("irradiance_cache_error", error),
-            ("irradiance_cache_min_distance", min_distance),
-            ("irradiance_cache_max_distance", max_distance),
-            ("irradiance_cache_gather_rays", rays),
-            ("irradiance_cache_gradients", gradients),
-        ]);
-        params.extend(light_sampling_params(p.light_sampling()));
-        params
+    fn params(&self) -> Vec<(String, String)> {
+        self.params.columns()
     }
 
     /// Work since `prepare` ([`PhotonMapCounters`]), then what `prepare` built: photons in the
@@ -628,7 +491,7 @@ impl Strategy for PhotonMapStrategy {
         Ok(phases)
     }
 
-    fn render_pass(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: std::ops::Range<u32>, film: &mut Film) {
         self.render_maps(scene, seed, samples, film);
     }
 }
@@ -713,7 +576,7 @@ impl PhotonMapStrategy {
         Some(r.lookup(hit, scene.bsdf(hit), wo, &mut PhotonMapCounters::default()))
     }
 
-    pub fn render_maps(&self, scene: &Scene, seed: u64, samples: Range<u32>, film: &mut Film) {
+    pub fn render_maps(&self, scene: &Scene, seed: u64, samples: std::ops::Range<u32>, film: &mut Film) {
         let Some(maps) = &self.maps else { return };
         let r = Renderer {
             scene,
