@@ -1,0 +1,266 @@
+//! The final gather [Jensen 1996; Christensen 1999, §2.3]: camera paths through delta
+//! surfaces to the first non-delta hit, the direct term there, and gather rays that read the
+//! photon maps (full radiance estimates, precomputed irradiance, or the caustic map); secondary
+//! gathers for short rays.
+
+use super::*;
+use crate::bsdf::{Bsdf, TransportMode};
+use crate::geometry::{Ray, spawn_ray};
+use crate::photon::{EstimateParams, PhotonMap};
+use crate::sampling::{Rng, latin_hypercube};
+use crate::scene::{Scene, SurfaceHit};
+use crate::strategy::path::{BsdfSampling, Direct, estimate_direct, receiver};
+use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
+
+pub(super) struct Renderer<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) params: &'a PhotonMapParams,
+    pub(super) maps: &'a Maps,
+}
+
+/// Shading normal on the side of the world direction `w`.
+#[inline]
+pub(super) fn side_normal(hit: &SurfaceHit, w: Vec3) -> Vec3 {
+    if hit.ng.dot(w) >= 0.0 {
+        hit.frame.n
+    } else {
+        -hit.frame.n
+    }
+}
+
+impl Renderer<'_> {
+    /// Radiance arriving along a camera ray.
+    pub(super) fn radiance(&self, mut ray: Ray, rng: &mut Rng, c: &mut PhotonMapCounters) -> Vec3 {
+        let scene = self.scene;
+        let mut l = Vec3::ZERO;
+        let mut beta = Vec3::ONE;
+        let mut depth = 0u32;
+        while let Some(hit) = scene.intersect(&ray) {
+            if let Some(light) = scene.light_of(hit.prim) {
+                l += beta * light.le(hit.ng, -ray.d);
+            }
+            let bsdf = scene.bsdf(&hit);
+            let wo = hit.frame.to_local(-ray.d);
+            if !bsdf.is_delta() {
+                l += beta * self.shade(&hit, bsdf, -ray.d, true, rng, c);
+                break;
+            }
+            if depth >= self.params.max_depth {
+                break;
+            }
+            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else {
+                break;
+            };
+            beta *= weight;
+            if beta == Vec3::ZERO {
+                break;
+            }
+            ray = next;
+            depth += 1;
+        }
+        l
+    }
+
+    /// Reflected radiance at a non-delta hit towards `wo_world`, without emission: light
+    /// sampling + caustic map + a final gather (`primary`: G rays that may start secondary
+    /// gathers; otherwise the secondary gather's rays, read from the map).
+    pub(super) fn shade(
+        &self,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        wo_world: Vec3,
+        primary: bool,
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+    ) -> Vec3 {
+        let scene = self.scene;
+        let wo = hit.frame.to_local(wo_world);
+        let sampler = BsdfSampling::Importance;
+        let mut weights = None;
+        let lights = self
+            .params
+            .light_sampling()
+            .at(scene, hit.p, || receiver(hit, bsdf, wo), &mut weights);
+        let light_choice = (&lights, &weights);
+        let direct = estimate_direct(
+            scene,
+            hit,
+            bsdf,
+            wo,
+            rng,
+            Direct::Nee,
+            light_choice,
+            (&sampler, &()),
+            &mut (),
+        );
+        c.caustic_estimates += u64::from(!self.maps.caustic.is_empty());
+        let caustic = self.map_radiance(&self.maps.caustic, &self.maps.caustic_estimate, hit, bsdf, wo_world);
+        let g = if primary {
+            self.params.gather_rays
+        } else {
+            self.params.secondary_gather_rays
+        } as usize;
+        if primary && let (Some(cache), Bsdf::Lambertian(lam)) = (&self.maps.cache, bsdf) {
+            // Ward's irradiance cache: ρ/π × the interpolated indirect irradiance.
+            match cache.interpolate(hit.p, side_normal(hit, wo_world)) {
+                Some(e) => {
+                    c.cache_lookups += 1;
+                    return direct + caustic + lam.reflectance * FRAC_1_PI * e;
+                }
+                None => c.cache_misses += 1,
+            }
+        }
+        let mut indirect = Vec3::ZERO;
+        c.final_gathers += u64::from(primary && g > 0);
+        if g > 0 {
+            for u in latin_hypercube(g, rng) {
+                let u_lobe = rng.uniform();
+                c.gather_rays += 1;
+                let Some(s) = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance) else {
+                    continue;
+                };
+                if s.pdf_w <= 0.0 {
+                    continue;
+                }
+                let wi = hit.frame.to_world(s.wi);
+                if wi.dot(hit.ng) * s.wi.z <= 0.0 {
+                    continue;
+                }
+                let weight = s.f * (s.wi.z.abs() / s.pdf_w);
+                if weight == Vec3::ZERO {
+                    continue;
+                }
+                indirect += weight * self.gather(spawn_ray(hit.p, hit.ng, wi), primary, rng, c).0;
+            }
+            indirect /= g as f32;
+        }
+        direct + caustic + indirect
+    }
+
+    /// Radiance a gather ray brings back: follows delta surfaces to the next non-delta hit y
+    /// and estimates its outgoing radiance there (emission excluded); and the distance to the
+    /// first surface hit (infinite when the ray escapes).
+    pub(super) fn gather(&self, ray: Ray, primary: bool, rng: &mut Rng, c: &mut PhotonMapCounters) -> (Vec3, f32) {
+        let mut first = f32::INFINITY;
+        let l = self.gather_to(ray, primary, rng, c, &mut first);
+        (l, first)
+    }
+
+    pub(super) fn gather_to(
+        &self,
+        mut ray: Ray,
+        primary: bool,
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+        first: &mut f32,
+    ) -> Vec3 {
+        let scene = self.scene;
+        let mut beta = Vec3::ONE;
+        let mut distance = 0.0f32;
+        let mut depth = 0u32;
+        loop {
+            let Some(hit) = scene.intersect(&ray) else {
+                return Vec3::ZERO;
+            };
+            if depth == 0 {
+                *first = hit.t;
+            }
+            distance += hit.t;
+            let bsdf = scene.bsdf(&hit);
+            let wo_world = -ray.d;
+            if !bsdf.is_delta() {
+                let maps = self.maps;
+                if primary && distance < maps.short_gather && self.params.secondary_gather_rays > 0 {
+                    c.secondary_gathers += 1;
+                    return beta * self.shade(&hit, bsdf, wo_world, false, rng, c);
+                }
+                return beta * self.lookup(&hit, bsdf, wo_world, c);
+            }
+            if depth >= self.params.max_depth {
+                return Vec3::ZERO;
+            }
+            let wo = hit.frame.to_local(wo_world);
+            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else {
+                return Vec3::ZERO;
+            };
+            beta *= weight;
+            if beta == Vec3::ZERO {
+                return Vec3::ZERO;
+            }
+            ray = next;
+            depth += 1;
+        }
+    }
+
+    /// The outgoing radiance a gather ray reads at the non-delta hit `hit` towards `wo_world`
+    /// (no secondary gather): with precomputed irradiance and a Lambertian surface, ρ/π times
+    /// the irradiance of the nearest photon with a similar normal [Christensen 1999, §3.1];
+    /// otherwise the global map's radiance estimate with the BSDF.
+    pub(super) fn lookup(&self, hit: &SurfaceHit, bsdf: &Bsdf, wo_world: Vec3, c: &mut PhotonMapCounters) -> Vec3 {
+        let maps = self.maps;
+        if let (Some(irr), Some(pre), Bsdf::Lambertian(lam)) =
+            (&maps.irradiance, &self.params.precomputed_irradiance, bsdf)
+        {
+            c.irradiance_lookups += 1;
+            let n = side_normal(hit, wo_world);
+            return irr.radiance_at(hit.p, n, lam.reflectance, pre.normal_dot);
+        }
+        c.map_estimates += 1;
+        self.map_radiance(&maps.global, &maps.estimate, hit, bsdf, wo_world)
+    }
+
+    /// The first non-delta hit of a camera ray, the throughput of the delta chain before it
+    /// and the direction back along the ray; `None` when the ray escapes or the chain ends.
+    pub(super) fn first_diffuse_hit(&self, mut ray: Ray, rng: &mut Rng) -> Option<(SurfaceHit, Vec3, Vec3)> {
+        let mut beta = Vec3::ONE;
+        for _ in 0..=self.params.max_depth {
+            let hit = self.scene.intersect(&ray)?;
+            let bsdf = self.scene.bsdf(&hit);
+            if !bsdf.is_delta() {
+                return Some((hit, beta, -ray.d));
+            }
+            let (next, weight) = delta_bounce(&hit, bsdf, hit.frame.to_local(-ray.d), rng)?;
+            beta *= weight;
+            ray = next;
+        }
+        None
+    }
+
+    /// Radiance estimate of `map` at `hit` towards `wo_world` with the BSDF: on the side seen
+    /// from `wo_world`, plus the other side for transmitting BSDFs.
+    pub(super) fn map_radiance(
+        &self,
+        map: &PhotonMap,
+        params: &EstimateParams,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        wo_world: Vec3,
+    ) -> Vec3 {
+        if map.is_empty() {
+            return Vec3::ZERO;
+        }
+        let wo = hit.frame.to_local(wo_world);
+        let f_r = |wi: Vec3| bsdf.eval(wo, hit.frame.to_local(wi), TransportMode::Radiance);
+        let n = side_normal(hit, wo_world);
+        let mut l = map.radiance(hit.p, n, params, f_r).value;
+        if bsdf.is_transmissive() {
+            l += map.radiance(hit.p, -n, params, f_r).value;
+        }
+        l
+    }
+}
+
+/// Samples a delta BSDF: the continued ray and the throughput weight f cos / p.
+pub(super) fn delta_bounce(hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3, rng: &mut Rng) -> Option<(Ray, Vec3)> {
+    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+    let s = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)?;
+    if s.pdf_w <= 0.0 {
+        return None;
+    }
+    let wi = hit.frame.to_world(s.wi);
+    if wi.dot(hit.ng) * s.wi.z <= 0.0 {
+        return None;
+    }
+    Some((spawn_ray(hit.p, hit.ng, wi), s.f * (s.wi.z.abs() / s.pdf_w)))
+}
