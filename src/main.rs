@@ -414,7 +414,7 @@ fn run_command(command: Command) -> Result<Status> {
                     output.display()
                 )));
             }
-            for w in photon_bench::scene::mitsuba::export::export_file(&scene, &output)? {
+            for w in photon_bench::scene::export::export_file(&scene, &output)? {
                 eprintln!("warning: {w}");
             }
             println!("{}", output.display());

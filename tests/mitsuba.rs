@@ -5,8 +5,8 @@
 use glam::{Vec2, Vec3};
 use photon_bench::geometry::Primitive;
 use photon_bench::scene::Scene;
+use photon_bench::scene::export::export_file;
 use photon_bench::scene::load::load_scene_with_stats;
-use photon_bench::scene::mitsuba::export::export_file;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -102,7 +102,7 @@
 //! an OBJ names are read only for the content hash: the scene's `material` applies to the
 //! whole mesh, and a missing MTL is ignored.
 //!
-//! **Subdivision.** `subdivide = n` (an integer in 1..=[`super::load::MAX_SUBDIVIDE`]) splits
+//! **Subdivision.** `subdivide = n` (an integer in 1..=[`super::limits::MAX_SUBDIVIDE`]) splits
 //! a quad, or each face of a box, into an n × n grid of equal parallelograms, two triangles
 //! each, in a fixed order (row by row from the corner, along `edge_u` first). The surface is
 //! the same; only the triangle count grows. Radiosity-era interiors such as Christensen 1999's

@@ -4,8 +4,15 @@
 //! `load` reads `scenes/*.toml` (format documented in the README and in [`desc`]) with OBJ/MTL
 //! meshes through tobj, validates every field, and assembles the runtime scene here. Mitsuba 3
 //! XML scenes (`scenes/*.xml`) are translated into the same description by [`mitsuba`] first.
+//!
+//! Files: [`desc`] (the serde model of `scenes/*.toml`), [`load`] (our TOML to a validated
+//! [`Scene`]), [`mitsuba`] (Mitsuba 3 XML to the same description), [`export`] (a scene as
+//! Mitsuba 3 XML, for cross-checks), [`limits`] (what every reader refuses). What does not live
+//! here: rendering, sampling decisions, strategies; nothing here mutates a `Scene` after loading.
 
 pub mod desc;
+pub mod export;
+pub mod limits;
 pub mod load;
 pub mod mitsuba;
 

@@ -19,11 +19,11 @@
 //!   warning. No integrator is written: the caller (e.g. `scripts/crosscheck_mitsuba.py`)
 //!   chooses it.
 //!
-//! Reading the file back ([`super::import`]) gives the same scene: same triangles and spheres to
+//! Reading the file back ([`super::mitsuba::import`]) gives the same scene: same triangles and spheres to
 //! float precision, same camera rays, same materials (`tests/mitsuba.rs`).
 
-use super::super::desc::{MaterialDesc, SceneDesc, ShapeDesc, Triple};
-use super::super::load::{load_scene_with_stats, quad_corner_edges, read_desc, shape_transform};
+use super::desc::{MaterialDesc, SceneDesc, ShapeDesc, Triple};
+use super::load::{load_scene_with_stats, quad_corner_edges, read_desc, shape_transform};
 use crate::error::{Context, Error, Result};
 use glam::{DAffine3, DMat3, DMat4, DVec3};
 use std::fmt::Write;
@@ -42,10 +42,10 @@ const SUBDIVIDE_REFUSED: &str = "subdivide has no Mitsuba 3 equivalent (its rect
 pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
     // The scene must load as it is: export never writes what `bench run` would refuse.
     let (_, stats) = load_scene_with_stats(scene)?;
-    let desc = if super::super::load::is_mitsuba(scene) {
+    let desc = if super::load::is_mitsuba(scene) {
         let text = std::fs::read_to_string(scene).context(scene.display())?;
         let dir = scene.parent().unwrap_or(Path::new(""));
-        super::import(&scene.display().to_string(), dir, &text)?.desc
+        super::mitsuba::import(&scene.display().to_string(), dir, &text)?.desc
     } else {
         read_desc(scene)?
     };

@@ -1,0 +1,377 @@
+//! Meshing: every shape to primitives (quads, boxes, spheres, OBJ meshes through tobj,
+//! `subdivide`), rounded to f32 only after validation; degenerate triangles refused or counted.
+
+use super::*;
+use crate::error::Result;
+use crate::geometry::Primitive;
+use crate::light::Emission;
+use crate::resources::{check_memory, memory_limit};
+use crate::scene::PrimAttrs;
+use crate::scene::desc::{self, ShapeDesc};
+use glam::{DMat3, DVec3, Vec3};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Builds primitives shape by shape and remembers every file it read for the content hash.
+pub(super) struct Builder<'a> {
+    pub(super) ctx: &'a Ctx,
+    /// Directory of the scene file: relative mesh paths start here.
+    pub(super) dir: PathBuf,
+    pub(super) primitives: Vec<Primitive>,
+    pub(super) attrs: Vec<PrimAttrs>,
+    /// The scene file's bytes, then every mesh and MTL file's bytes in reading order.
+    pub(super) hashed: Vec<Vec<u8>>,
+    pub(super) stats: LoadStats,
+}
+
+/// Why a triangle could not be added.
+pub(super) enum TriangleError {
+    /// Zero area at f32 precision.
+    Degenerate,
+    /// A transformed vertex, as a message.
+    OutOfRange(String),
+}
+
+impl Builder<'_> {
+    pub(super) fn shape(
+        &mut self,
+        field: &str,
+        shape: &ShapeDesc,
+        material_index: &BTreeMap<String, u32>,
+    ) -> Result<()> {
+        let ctx = self.ctx;
+        let (material_name, t, emission) = shape.common();
+        let Some(&material) = material_index.get(material_name) else {
+            let known: Vec<String> = material_index.keys().map(|k| key_string(k)).collect();
+            let known = if known.is_empty() {
+                "no materials are defined".to_string()
+            } else {
+                format!("defined: {}", known.join(", "))
+            };
+            return Err(ctx.err(
+                &format!("{field}.material"),
+                format!("no material named {material_name:?} ({known})"),
+            ));
+        };
+        let emission = match emission {
+            None => None,
+            Some(e) => {
+                let ok = e.radiance.iter().all(|&c| (0.0..=MAX_RADIANCE).contains(&c));
+                if !ok {
+                    return Err(ctx.err(
+                        &format!("{field}.emission.radiance"),
+                        format!(
+                            "expected each channel finite in [0, {}], got {}",
+                            num(MAX_RADIANCE),
+                            triple(e.radiance)
+                        ),
+                    ));
+                }
+                Some(Emission {
+                    le: rgb(e.radiance),
+                    two_sided: e.two_sided,
+                })
+            }
+        };
+        let attrs = PrimAttrs {
+            material,
+            normals: None,
+            emission,
+        };
+        let xf = transform(ctx, field, t)?;
+        match shape {
+            ShapeDesc::Quad(q) => {
+                let (corner, u, v) = quad_frame(ctx, field, q)?;
+                let n = self.subdivision(field, q.subdivide, 2)?;
+                self.quad(field, &xf, corner, u, v, n, attrs)
+            }
+            ShapeDesc::Box(b) => {
+                let (lo, hi) = match (b.min, b.max, b.center, b.size) {
+                    (Some(lo), Some(hi), None, None) => {
+                        let lo = ctx.coords(&format!("{field}.min"), lo)?;
+                        let hi = ctx.coords(&format!("{field}.max"), hi)?;
+                        if !lo.cmplt(hi).all() {
+                            return Err(ctx.err(
+                                &format!("{field}.max"),
+                                format!(
+                                    "expected max > min on every axis, got min = {}, max = {}",
+                                    triple(lo.to_array()),
+                                    triple(hi.to_array())
+                                ),
+                            ));
+                        }
+                        (lo, hi)
+                    }
+                    (None, None, Some(c), Some(s)) => {
+                        let c = ctx.coords(&format!("{field}.center"), c)?;
+                        let s = DVec3::from_array(ctx.sizes(&format!("{field}.size"), s.0)?);
+                        (c - 0.5 * s, c + 0.5 * s)
+                    }
+                    _ => {
+                        return Err(ctx.err(field, "a box needs either `min` and `max` or `center` and `size`"));
+                    }
+                };
+                let n = self.subdivision(field, b.subdivide, 12)?;
+                let d = hi - lo;
+                let (x, y, z) = (d.x * DVec3::X, d.y * DVec3::Y, d.z * DVec3::Z);
+                // Six faces, each edge_u × edge_v pointing out of the box.
+                let faces = [
+                    (lo, z, y),
+                    (DVec3::new(hi.x, lo.y, lo.z), y, z),
+                    (lo, x, z),
+                    (DVec3::new(lo.x, hi.y, lo.z), z, x),
+                    (lo, y, x),
+                    (DVec3::new(lo.x, lo.y, hi.z), x, y),
+                ];
+                for (corner, u, v) in faces {
+                    self.quad(field, &xf, corner, u, v, n, attrs)?;
+                }
+                Ok(())
+            }
+            ShapeDesc::Sphere(s) => {
+                let center = ctx.coords(&format!("{field}.center"), s.center)?;
+                let radius = ctx.positive(&format!("{field}.radius"), s.radius)?;
+                // A sphere stays a sphere only under a similarity: LᵀL = s² I.
+                let l = xf.m.matrix3;
+                let g = l.transpose() * l;
+                let s2 = (g.x_axis.x + g.y_axis.y + g.z_axis.z) / 3.0;
+                let off = (g - DMat3::from_diagonal(DVec3::splat(s2))).to_cols_array();
+                if off.iter().any(|x| x.abs() > 1e-6 * s2) {
+                    return Err(ctx.err(
+                        &format!("{field}.transform"),
+                        "a sphere accepts only rotations, translations and uniform scale",
+                    ));
+                }
+                let c = xf.point(center);
+                let r = radius * s2.sqrt();
+                if !(c.to_array().iter().all(|&x| is_coord(x)) && r > 0.0 && is_coord(r)) {
+                    return Err(ctx.err(
+                        field,
+                        format!(
+                            "the transformed sphere (center {}, radius {}) exceeds magnitude {}",
+                            triple(c.to_array()),
+                            num(r),
+                            num(MAX_COORD)
+                        ),
+                    ));
+                }
+                self.primitives.push(Primitive::Sphere {
+                    center: c.as_vec3(),
+                    radius: r as f32,
+                });
+                self.attrs.push(attrs);
+                Ok(())
+            }
+            ShapeDesc::Mesh(m) => self.mesh(field, m, &xf, attrs),
+        }
+    }
+
+    /// The validated `subdivide` of `field` (default 1), after checking that the
+    /// `triangles_per_cell` · n² triangles it adds fit in the memory limit.
+    pub(super) fn subdivision(&mut self, field: &str, subdivide: Option<i64>, triangles_per_cell: u64) -> Result<u32> {
+        let Some(n) = subdivide else { return Ok(1) };
+        let field = format!("{field}.subdivide");
+        if !(1..=MAX_SUBDIVIDE).contains(&n) {
+            return Err(self.ctx.err(
+                &field,
+                format!("expected an integer in 1..={MAX_SUBDIVIDE} (cells per edge), got {n}"),
+            ));
+        }
+        let triangles = self.primitives.len() as u64 + triangles_per_cell * (n * n) as u64;
+        check_memory("the scene's triangles", triangles * BYTES_PER_TRIANGLE, memory_limit()?)
+            .map_err(|e| self.ctx.err(&field, e))?;
+        if n > 1 && !self.hashed.iter().any(|h| h == SUBDIVIDE_HASH_TAG) {
+            self.hashed.push(SUBDIVIDE_HASH_TAG.to_vec());
+        }
+        Ok(n as u32)
+    }
+
+    /// Adds the parallelogram corner + s·u + t·v as an n × n grid of cells, two triangles each,
+    /// facing u × v. Cell corners are computed from the integer grid indices (never by
+    /// accumulating steps), so neighbouring cells share their vertices exactly: no cracks.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn quad(
+        &mut self,
+        field: &str,
+        xf: &Xform,
+        corner: DVec3,
+        u: DVec3,
+        v: DVec3,
+        n: u32,
+        attrs: PrimAttrs,
+    ) -> Result<()> {
+        let at = |i: u32, j: u32| corner + u * (f64::from(i) / f64::from(n)) + v * (f64::from(j) / f64::from(n));
+        for j in 0..n {
+            for i in 0..n {
+                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                self.cell(field, xf, [a, b, c, d], attrs)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds one parallelogram a b c d (counter-clockwise about its front) as two triangles.
+    pub(super) fn cell(&mut self, field: &str, xf: &Xform, [a, b, c, d]: [DVec3; 4], attrs: PrimAttrs) -> Result<()> {
+        for tri in [[a, b, c], [a, c, d]] {
+            match self.triangle(xf, tri, None, attrs) {
+                Ok(()) => {}
+                Err(TriangleError::OutOfRange(msg)) => return Err(self.ctx.err(field, msg)),
+                Err(TriangleError::Degenerate) => {
+                    return Err(self.ctx.err(
+                        field,
+                        "the shape has zero area at f32 precision after transforming (too \
+                         small for its distance from the origin)",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Transforms and adds one triangle, given CCW about its intended front side.
+    pub(super) fn triangle(
+        &mut self,
+        xf: &Xform,
+        v: [DVec3; 3],
+        normals: Option<[DVec3; 3]>,
+        attrs: PrimAttrs,
+    ) -> std::result::Result<(), TriangleError> {
+        let mut w = v.map(|p| xf.point(p));
+        for p in w {
+            if !p.to_array().iter().all(|&c| is_coord(c)) {
+                return Err(TriangleError::OutOfRange(format!(
+                    "a transformed vertex {} exceeds magnitude {}",
+                    triple(p.to_array()),
+                    num(MAX_COORD)
+                )));
+            }
+        }
+        let mut n = normals.and_then(|ns| {
+            let ns = ns.map(|n| (xf.normal_matrix * n).normalize_or_zero().as_vec3());
+            ns.iter().all(|n| n.is_finite() && *n != Vec3::ZERO).then_some(ns)
+        });
+        if xf.flips {
+            w.swap(1, 2);
+            if let Some(ns) = n.as_mut() {
+                ns.swap(1, 2);
+            }
+        }
+        let p = w.map(|p| p.as_vec3());
+        if is_degenerate(p) {
+            return Err(TriangleError::Degenerate);
+        }
+        self.primitives.push(Primitive::Triangle(p));
+        self.attrs.push(PrimAttrs { normals: n, ..attrs });
+        Ok(())
+    }
+
+    pub(super) fn mesh(&mut self, field: &str, m: &desc::Mesh, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
+        let ctx = self.ctx;
+        let file_field = format!("{field}.file");
+        let path = self.dir.join(&m.file);
+        let shown = path.display();
+        let bytes = read_regular_file(&path).map_err(|e| ctx.err(&file_field, format!("cannot read {shown}: {e}")))?;
+        self.stats.files_read.push(path.clone());
+        let obj_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        // MTL libraries are read for the hash only; the scene's `material` is used, so tobj
+        // gets none (which also keeps its MTL parser, which can panic on short colour lines,
+        // away from our inputs).
+        let mtl = std::cell::RefCell::new(Vec::<(PathBuf, Vec<u8>)>::new());
+        let options = tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ignore_points: true,
+            ignore_lines: true,
+        };
+        let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            tobj::load_obj_buf(&mut &bytes[..], &options, |p| {
+                let p = obj_dir.join(p);
+                if let Ok(b) = read_regular_file(&p) {
+                    mtl.borrow_mut().push((p, b));
+                }
+                Err(tobj::LoadError::GenericFailure)
+            })
+        }));
+        let models = match parsed {
+            Ok(Ok((models, _materials))) => models,
+            Ok(Err(e)) => return Err(ctx.err(&file_field, format!("{shown}: {e}"))),
+            Err(_) => {
+                return Err(ctx.err(&file_field, format!("{shown}: the OBJ parser failed")));
+            }
+        };
+        self.hashed.push(bytes);
+        for (p, b) in mtl.into_inner() {
+            self.stats.files_read.push(p);
+            self.hashed.push(b);
+        }
+
+        let (mut added, mut skipped) = (0usize, 0usize);
+        for model in &models {
+            let mesh = &model.mesh;
+            let pos = &mesh.positions;
+            if let Some(bad) = pos.iter().position(|x| !x.is_finite() || x.abs() as f64 > MAX_COORD) {
+                return Err(ctx.err(
+                    &file_field,
+                    format!(
+                        "{shown}: vertex {} of object {:?} has a non-finite or huge coordinate",
+                        bad / 3 + 1,
+                        model.name
+                    ),
+                ));
+            }
+            let n_vertices = pos.len() / 3;
+            let has_normals = !m.face_normals && !mesh.normals.is_empty() && mesh.normals.len() == pos.len();
+            let vertex = |i: usize| DVec3::new(pos[3 * i] as f64, pos[3 * i + 1] as f64, pos[3 * i + 2] as f64);
+            let normal = |i: usize| {
+                let n = &mesh.normals;
+                DVec3::new(n[3 * i] as f64, n[3 * i + 1] as f64, n[3 * i + 2] as f64)
+            };
+            for tri in mesh.indices.chunks(3) {
+                let &[i, j, k] = tri else {
+                    return Err(ctx.err(&file_field, format!("{shown}: a face is not a triangle")));
+                };
+                let idx = [i as usize, j as usize, k as usize];
+                if idx.iter().any(|&i| i >= n_vertices) {
+                    return Err(ctx.err(&file_field, format!("{shown}: a face index is out of range")));
+                }
+                let normals = has_normals.then(|| idx.map(normal));
+                match self.triangle(xf, idx.map(vertex), normals, attrs) {
+                    Ok(()) => added += 1,
+                    Err(TriangleError::Degenerate) => skipped += 1,
+                    Err(TriangleError::OutOfRange(msg)) => {
+                        return Err(ctx.err(field, format!("{shown}: {msg}")));
+                    }
+                }
+            }
+        }
+        if added == 0 {
+            let why = if skipped > 0 {
+                format!("all {skipped} triangles are degenerate (zero area)")
+            } else {
+                "no triangles".to_string()
+            };
+            return Err(ctx.err(&file_field, format!("{shown}: {why}")));
+        }
+        self.stats.degenerate_triangles_skipped += skipped;
+        Ok(())
+    }
+}
+
+/// Reads a file, refusing devices and pipes (`/dev/zero` would never end).
+pub(super) fn read_regular_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(std::io::Error::other("not a regular file"));
+    }
+    std::fs::read(path)
+}
+
+/// A triangle is degenerate when its normal is not computable in f32: zero or non-finite
+/// cross product, or one so small against the edges that its direction is rounding noise.
+pub(super) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
+    let cross = (b - a).cross(c - a).length();
+    let edge2 = (b - a)
+        .length_squared()
+        .max((c - a).length_squared())
+        .max((c - b).length_squared());
+    !(cross.is_finite() && cross > 1e-6 * edge2)
+}

@@ -1,0 +1,257 @@
+//! Loading `scenes/*.toml` (format: [`super::desc`]) into a validated [`Scene`].
+//!
+//! Loading runs in three stages, each with its own kind of error:
+//! 1. TOML syntax (`TOML syntax error at line L, column C: …`);
+//! 2. the serde model: unknown keys, wrong types, unknown `type`s, located by key path and
+//!    line/column (`shapes[3].radius: invalid type: string "a", expected f64 (line 12, …)`);
+//! 3. meaning: ranges, references, degeneracies, files (`shapes[3].radius: expected a positive
+//!    finite number, got -1`).
+//!
+//! Every error is one line that starts with the scene file and names the field. Nothing here
+//! panics on any input: the fuzz tests below feed random bytes and mutated scenes.
+//!
+//! Geometry is validated and transformed in f64 and only then rounded to the f32 the renderer
+//! uses; a triangle that rounding collapses is refused (quads, boxes) or skipped and counted
+//! (meshes, [`LoadStats`]).
+//!
+//! Files: this one (entry points, statistics, hashing), [`locate`] (stages 1–2: errors located
+//! by key path and line/column), [`validate`] (stage 3: values, camera, materials), [`transform`]
+//! (shape transforms in f64), [`mesh`] (primitives, `subdivide`, OBJ), [`user_paths`] (the UP
+//! proposal's paths), `tests.rs` (including the fuzz tests). What does not live here: the
+//! Mitsuba importer ([`super::mitsuba`]) and anything a renderer does with the scene.
+
+mod locate;
+mod mesh;
+#[cfg(test)]
+mod tests;
+mod transform;
+mod user_paths;
+mod validate;
+
+use locate::*;
+use mesh::*;
+use transform::*;
+use user_paths::*;
+use validate::*;
+
+use super::Scene;
+use super::desc::{self, SceneDesc, TransformDesc};
+use crate::error::{Error, Result};
+use crate::geometry::Primitive;
+use crate::util::content_hash;
+use glam::{DAffine3, DVec3};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+pub use super::limits::*;
+
+/// Memory budgeted per triangle when checking a subdivided shape against the memory limit: the
+/// primitive, its attributes, its BVH share and its light entry, rounded up.
+const BYTES_PER_TRIANGLE: u64 = 256;
+/// Enters the content hash of every scene that subdivides a shape: bump it when the
+/// tessellation changes, so that references and cached cells made with the old one go stale.
+const SUBDIVIDE_HASH_TAG: &[u8] = b"photon-bench subdivide v1";
+/// A user path's first point must lie within this fraction of the scene's bounding-box diagonal
+/// from an emissive surface.
+pub const USER_PATH_LIGHT_TOLERANCE: f64 = 1e-3;
+
+/// What loading found, beyond the scene itself.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadStats {
+    pub triangles: usize,
+    pub spheres: usize,
+    /// Mesh triangles skipped because their area is zero at f32 precision.
+    pub degenerate_triangles_skipped: usize,
+    /// Files read besides the scene file (meshes and their MTL libraries).
+    pub files_read: Vec<PathBuf>,
+    /// Approximations made while reading a Mitsuba scene, one line each (empty for TOML).
+    pub warnings: Vec<String>,
+}
+
+/// Loads and validates a scene file. Skipped degenerate mesh triangles are reported on stderr;
+/// use [`load_scene_with_stats`] to handle them yourself.
+pub fn load_scene(path: &Path) -> Result<Scene> {
+    let (scene, stats) = load_scene_with_stats(path)?;
+    for w in &stats.warnings {
+        eprintln!("warning: {w}");
+    }
+    if stats.degenerate_triangles_skipped > 0 {
+        eprintln!(
+            "warning: {}: skipped {} degenerate mesh triangle(s)",
+            path.display(),
+            stats.degenerate_triangles_skipped
+        );
+    }
+    Ok(scene)
+}
+
+/// Loads and validates a scene file, and says what it skipped.
+pub fn load_scene_with_stats(path: &Path) -> Result<(Scene, LoadStats)> {
+    let bytes =
+        std::fs::read(path).map_err(|e| Error::new(format!("{}: cannot read the scene file: {e}", path.display())))?;
+    load_scene_bytes(path, &bytes)
+}
+
+/// Loads a scene from its bytes; `path` names it in messages, gives the default name and
+/// anchors relative mesh paths.
+pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)> {
+    let ctx = Ctx {
+        file: path.display().to_string(),
+    };
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        ctx.whole(format!(
+            "not valid UTF-8 (first bad byte at offset {})",
+            e.valid_up_to()
+        ))
+    })?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    // Mitsuba scenes become the same description; only how shapes are named in errors and
+    // the warnings differ. The hash below covers the XML bytes and meshes as for TOML.
+    let (desc, shape_labels, warnings) = if is_mitsuba(path) {
+        let imported = super::mitsuba::import(&ctx.file, &dir, text)?;
+        (imported.desc, Some(imported.shape_labels), imported.warnings)
+    } else {
+        (parse_desc(&ctx, text)?, None, Vec::new())
+    };
+
+    let mut b = Builder {
+        ctx: &ctx,
+        dir,
+        primitives: Vec::new(),
+        attrs: Vec::new(),
+        hashed: vec![bytes.to_vec()],
+        stats: LoadStats {
+            warnings,
+            ..LoadStats::default()
+        },
+    };
+    let camera = camera(&ctx, &desc.camera)?;
+    let (materials, material_index) = materials(&ctx, &desc.materials)?;
+    for (i, shape) in desc.shapes.iter().enumerate() {
+        let field = match &shape_labels {
+            Some(labels) => labels[i].clone(),
+            None => format!("shapes[{i}]"),
+        };
+        b.shape(&field, shape, &material_index)?;
+    }
+    if !b
+        .attrs
+        .iter()
+        .any(|a| a.emission.is_some_and(|e| e.le.max_element() > 0.0))
+    {
+        return Err(ctx.whole(
+            "no light: give at least one shape `emission = { radiance = [r, g, b] }` with a \
+             positive channel",
+        ));
+    }
+    let user_paths = user_paths(&ctx, &desc.user_paths, &b.primitives, &b.attrs)?;
+
+    if let Some(name) = &desc.name
+        && !is_file_name_safe(name)
+    {
+        // The name labels result rows and becomes part of file names (`references/<name>.exr`,
+        // `images/<name>_…`): a separator or a leading dot would put files elsewhere.
+        return Err(ctx.err(
+            "name",
+            format!(
+                "expected a non-empty name without '/', '\\', control characters or a leading \
+                 '.' or space, got {name:?}"
+            ),
+        ));
+    }
+    let name = desc.name.clone().unwrap_or_else(|| {
+        path.file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".to_string())
+    });
+    let parts: Vec<&[u8]> = b.hashed.iter().map(Vec::as_slice).collect();
+    let hash = content_hash(&parts);
+    let Builder {
+        primitives,
+        attrs,
+        mut stats,
+        ..
+    } = b;
+    stats.triangles = primitives
+        .iter()
+        .filter(|p| matches!(p, Primitive::Triangle(_)))
+        .count();
+    stats.spheres = primitives.len() - stats.triangles;
+    let scene = Scene::assemble(
+        name,
+        path.to_path_buf(),
+        hash,
+        camera,
+        materials,
+        primitives,
+        attrs,
+        user_paths,
+    )?;
+    Ok((scene, stats))
+}
+
+/// Whether a scene file is a Mitsuba 3 XML scene (by its extension, `.xml`).
+pub fn is_mitsuba(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// Reads and deserializes a TOML scene file's description without building the scene.
+pub(crate) fn read_desc(path: &Path) -> Result<SceneDesc> {
+    let ctx = Ctx {
+        file: path.display().to_string(),
+    };
+    let bytes =
+        std::fs::read(path).map_err(|e| Error::new(format!("{}: cannot read the scene file: {e}", path.display())))?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        ctx.whole(format!(
+            "not valid UTF-8 (first bad byte at offset {})",
+            e.valid_up_to()
+        ))
+    })?;
+    parse_desc(&ctx, text)
+}
+
+/// A shape's transform as one validated affine map (for the Mitsuba exporter); `file` and
+/// `field` name it in errors.
+pub(crate) fn shape_transform(file: &str, field: &str, t: Option<&TransformDesc>) -> Result<DAffine3> {
+    let ctx = Ctx { file: file.to_string() };
+    transform(&ctx, field, t).map(|x| x.m)
+}
+
+/// A quad's corner and edges, whichever form it is written in (for the Mitsuba exporter).
+pub(crate) fn quad_corner_edges(file: &str, field: &str, q: &desc::Quad) -> Result<(DVec3, DVec3, DVec3)> {
+    let ctx = Ctx { file: file.to_string() };
+    quad_frame(&ctx, field, q)
+}
+
+/// A name that can be used as (part of) a file name in any directory: non-empty, no path
+/// separator or control character, and no leading dot or surrounding white space.
+fn is_file_name_safe(name: &str) -> bool {
+    !name.is_empty()
+        && name.trim() == name
+        && !name.starts_with('.')
+        && !name.chars().any(|c| c == '/' || c == '\\' || c.is_control())
+}
+
+/// The scene file's name, prefixed to every message.
+struct Ctx {
+    file: String,
+}
+
+impl Ctx {
+    /// An error about one field.
+    fn err(&self, field: &str, msg: impl fmt::Display) -> Error {
+        Error::new(format!("{}: {field}: {msg}", self.file))
+    }
+
+    /// An error about the file as a whole.
+    fn whole(&self, msg: impl fmt::Display) -> Error {
+        Error::new(format!("{}: {msg}", self.file))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stages 1 and 2: TOML and the serde model.
+
+// ---------------------------------------------------------------------------------------------
+// Stage 3: meaning. Small validators first; each returns the value in the type the renderer uses.

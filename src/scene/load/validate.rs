@@ -1,0 +1,281 @@
+//! The third stage, meaning: numbers in range, colours, energies, the camera and the
+//! materials (BSDFs built and checked), each error one line naming the field.
+
+use super::*;
+use crate::bsdf::{Bsdf, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, Ward};
+use crate::camera::Camera;
+use crate::error::Result;
+use crate::resources::{check_memory, film_bytes, memory_limit};
+use crate::scene::Material;
+use crate::scene::desc::{self, MaterialDesc, Triple};
+use glam::{DVec3, Vec3};
+use std::collections::BTreeMap;
+
+/// A number as a reader would write it: exponents for very large or small magnitudes.
+pub(super) fn num(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e7).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// A computed number (a distance, a determinant) to 4 significant digits.
+pub(super) fn approx(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        return "0".to_string();
+    }
+    if !v.is_finite() || !(1e-4..1e7).contains(&a) {
+        return format!("{v:.3e}");
+    }
+    let decimals = (3 - a.log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+pub(super) fn triple(v: impl Into<Triple>) -> String {
+    let v = v.into();
+    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
+}
+
+pub(super) fn dvec(v: Triple) -> DVec3 {
+    DVec3::from_array(v.0)
+}
+
+pub(super) fn rgb(v: Triple) -> Vec3 {
+    dvec(v).as_vec3()
+}
+
+pub(super) fn is_coord(v: f64) -> bool {
+    v.is_finite() && v.abs() <= MAX_COORD
+}
+
+impl Ctx {
+    /// A point or vector: finite, every coordinate within ±[`MAX_COORD`].
+    pub(super) fn coords(&self, field: &str, v: Triple) -> Result<DVec3> {
+        if v.iter().all(|&c| is_coord(c)) {
+            Ok(dvec(v))
+        } else {
+            Err(self.err(
+                field,
+                format!(
+                    "expected finite coordinates of magnitude at most {}, got {}",
+                    num(MAX_COORD),
+                    triple(v)
+                ),
+            ))
+        }
+    }
+
+    /// A length such as a radius: positive, finite, at most [`MAX_COORD`].
+    pub(super) fn positive(&self, field: &str, v: f64) -> Result<f64> {
+        if v > 0.0 && is_coord(v) {
+            Ok(v)
+        } else {
+            Err(self.err(field, format!("expected a positive finite number, got {}", num(v))))
+        }
+    }
+
+    /// Positive sizes per axis.
+    pub(super) fn sizes<const N: usize>(&self, field: &str, v: [f64; N]) -> Result<[f64; N]> {
+        if v.iter().all(|&c| c > 0.0 && is_coord(c)) {
+            Ok(v)
+        } else {
+            let list: Vec<String> = v.iter().map(|&c| num(c)).collect();
+            Err(self.err(
+                field,
+                format!("expected positive finite sizes, got [{}]", list.join(", ")),
+            ))
+        }
+    }
+
+    /// A reflectance-like colour: every channel in [0, 1].
+    pub(super) fn unit_rgb(&self, field: &str, v: Triple) -> Result<Triple> {
+        if v.iter().all(|c| (0.0..=1.0).contains(c)) {
+            Ok(v)
+        } else {
+            Err(self.err(field, format!("expected each channel in [0, 1], got {}", triple(v))))
+        }
+    }
+
+    /// Two colours whose sum must not exceed 1 per channel (energy conservation).
+    pub(super) fn energy(&self, field: &str, what: &str, a: Triple, b: Triple) -> Result<()> {
+        if (0..3).all(|i| a[i] + b[i] <= 1.0 + 1e-6) {
+            Ok(())
+        } else {
+            let sum = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+            Err(self.err(
+                field,
+                format!(
+                    "{what} must not exceed 1 in any channel (energy conservation), got {}",
+                    triple(sum)
+                ),
+            ))
+        }
+    }
+}
+
+pub(super) fn camera(ctx: &Ctx, c: &desc::CameraDesc) -> Result<Camera> {
+    let [w, h] = c.resolution.0;
+    if !(1..=MAX_RESOLUTION_SIDE).contains(&w) || !(1..=MAX_RESOLUTION_SIDE).contains(&h) {
+        return Err(ctx.err(
+            "camera.resolution",
+            format!("expected width and height in 1..={MAX_RESOLUTION_SIDE}, got [{w}, {h}]"),
+        ));
+    }
+    if w as u64 * h as u64 > MAX_PIXELS {
+        return Err(ctx.err(
+            "camera.resolution",
+            format!("{w} × {h} pixels exceeds the limit of {} Mpixel", MAX_PIXELS >> 20),
+        ));
+    }
+    // Before any film is allocated: a film this machine cannot hold is refused here, not
+    // killed by the kernel halfway through a run.
+    let film = format!("a {w} × {h} film");
+    check_memory(&film, film_bytes(w, h), memory_limit()?).map_err(|e| ctx.err("camera.resolution", e))?;
+    if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
+        return Err(ctx.err(
+            "camera.fov_y",
+            format!("expected degrees in (0, 180), got {}", num(c.fov_y)),
+        ));
+    }
+    let eye = ctx.coords("camera.eye", c.eye)?;
+    let look_at = ctx.coords("camera.look_at", c.look_at)?;
+    let up = ctx.coords("camera.up", c.up)?;
+    let dir = look_at - eye;
+    // Closer than f32 can resolve at these coordinates counts as equal.
+    let scale = eye.abs().max_element().max(look_at.abs().max_element());
+    if dir.length() <= 1e-6 * scale || dir.length() == 0.0 {
+        return Err(ctx.err(
+            "camera.look_at",
+            format!("must differ from camera.eye, both are {}", triple(c.eye)),
+        ));
+    }
+    let sin = dir.normalize().cross(up.normalize_or_zero()).length();
+    if sin.is_nan() || sin <= 1e-3 {
+        return Err(ctx.err(
+            "camera.up",
+            format!(
+                "must be non-zero and not parallel to the view direction (look_at - eye), got {}",
+                triple(c.up)
+            ),
+        ));
+    }
+    Ok(Camera::new(
+        eye.as_vec3(),
+        look_at.as_vec3(),
+        up.as_vec3(),
+        c.fov_y as f32,
+        w,
+        h,
+    ))
+}
+
+/// Validates every material and builds them in name order; returns the name → index map.
+pub(super) fn materials(
+    ctx: &Ctx,
+    descs: &BTreeMap<String, MaterialDesc>,
+) -> Result<(Vec<Material>, BTreeMap<String, u32>)> {
+    let mut out = Vec::with_capacity(descs.len());
+    let mut index = BTreeMap::new();
+    for (name, d) in descs {
+        let field = format!("materials.{}", key_string(name));
+        validate_material(ctx, &field, d)?;
+        index.insert(name.clone(), out.len() as u32);
+        out.push(Material {
+            name: name.clone(),
+            bsdf: make_bsdf(d).map_err(|e| e.context(format!("{}: {field}", ctx.file)))?,
+        });
+    }
+    Ok((out, index))
+}
+
+pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Result<()> {
+    let f = |key: &str| format!("{field}.{key}");
+    match d {
+        MaterialDesc::Diffuse(m) => {
+            ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
+        }
+        MaterialDesc::Mirror(m) => {
+            ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
+        }
+        MaterialDesc::Dielectric(m) => {
+            if !(m.ior > 0.0 && (m.ior as f32).is_finite()) {
+                return Err(ctx.err(
+                    &f("ior"),
+                    format!("expected a positive finite number, got {}", num(m.ior)),
+                ));
+            }
+        }
+        MaterialDesc::Phong(m) => {
+            ctx.unit_rgb(&f("diffuse"), m.diffuse)?;
+            ctx.unit_rgb(&f("specular"), m.specular)?;
+            ctx.energy(field, "diffuse + specular", m.diffuse, m.specular)?;
+            if !(0.0..=MAX_PHONG_EXPONENT).contains(&m.exponent) {
+                return Err(ctx.err(
+                    &f("exponent"),
+                    format!(
+                        "expected a number in [0, {}], got {}",
+                        num(MAX_PHONG_EXPONENT),
+                        num(m.exponent)
+                    ),
+                ));
+            }
+        }
+        MaterialDesc::Ward(m) => {
+            ctx.unit_rgb(&f("diffuse"), m.diffuse)?;
+            ctx.unit_rgb(&f("specular"), m.specular)?;
+            ctx.energy(field, "diffuse + specular", m.diffuse, m.specular)?;
+            for (key, a) in [("alpha_x", m.alpha_x), ("alpha_y", m.alpha_y)] {
+                if !(a > 0.0 && a <= 1.0) {
+                    return Err(ctx.err(&f(key), format!("expected a roughness in (0, 1], got {}", num(a))));
+                }
+            }
+        }
+        MaterialDesc::DiffuseTransmission(m) => {
+            ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
+            ctx.unit_rgb(&f("transmittance"), m.transmittance)?;
+            ctx.energy(field, "reflectance + transmittance", m.reflectance, m.transmittance)?;
+        }
+    }
+    Ok(())
+}
+
+/// Turns a validated material description into its reflectance model: the one place that
+/// knows both the file's material types and the [`Bsdf`] variants.
+pub(super) fn make_bsdf(d: &MaterialDesc) -> Result<Bsdf> {
+    let bsdf = match d {
+        MaterialDesc::Diffuse(m) => Bsdf::Lambertian(Lambertian {
+            reflectance: rgb(m.reflectance),
+        }),
+        MaterialDesc::Mirror(m) => Bsdf::Mirror(Mirror {
+            reflectance: rgb(m.reflectance),
+        }),
+        MaterialDesc::Dielectric(m) => Bsdf::Dielectric(Dielectric::clear(m.ior as f32)),
+        MaterialDesc::Phong(m) => Bsdf::Phong(Phong {
+            diffuse: rgb(m.diffuse),
+            specular: rgb(m.specular),
+            exponent: m.exponent as f32,
+        }),
+        MaterialDesc::Ward(m) => Bsdf::Ward(Ward {
+            diffuse: rgb(m.diffuse),
+            specular: rgb(m.specular),
+            alpha_x: m.alpha_x as f32,
+            alpha_y: m.alpha_y as f32,
+        }),
+        MaterialDesc::DiffuseTransmission(m) => Bsdf::DiffuseTransmission(DiffuseTransmission {
+            reflectance: rgb(m.reflectance),
+            transmittance: rgb(m.transmittance),
+        }),
+    };
+    // The description was validated field by field; this is the models' own check, kept as a
+    // second line of defence (f64 → f32 rounding could tip a sum over 1).
+    bsdf.validate()?;
+    Ok(bsdf)
+}

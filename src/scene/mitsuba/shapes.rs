@@ -1,0 +1,159 @@
+//! `<shape>` elements (meshes, rectangles, cubes, spheres …) and their `area` emitters.
+
+use super::*;
+use crate::error::Result;
+use crate::scene::desc::{self, Fixed, MaterialDesc, ShapeDesc};
+use glam::DVec3;
+use roxmltree::Node;
+
+impl<'a, 'i> Reader<'a, 'i> {
+    pub(super) fn shape(&mut self, n: Node<'a, 'i>, index: usize) -> Result<ShapeDesc> {
+        let kind = self.required(n, "type")?;
+        let mut o = self.obj(n)?;
+        let transform = self.transform(&mut o, "to_world")?.map(|(_, m)| matrix_step(m));
+        if let Some(true) = self.boolean(&mut o, "flip_normals")? {
+            return Err(self.err(n, "flip_normals=\"true\" is not supported"));
+        }
+        let mut material = None;
+        let mut emission = None;
+        for c in o.children.clone() {
+            match c.tag_name().name() {
+                "bsdf" | "ref" if material.is_some() => {
+                    return Err(self.err(c, "a second BSDF for this shape"));
+                }
+                "bsdf" => {
+                    let m = self.bsdf(c)?;
+                    let name = match self.attr(c, "id")? {
+                        Some(id) => id,
+                        None => format!("shape{index}"),
+                    };
+                    if self.materials.contains_key(&name) {
+                        return Err(self.err(c, format!("id {name:?} is used twice")));
+                    }
+                    self.materials.insert(name.clone(), m);
+                    material = Some(name);
+                }
+                "ref" => {
+                    let id = self.required(c, "id")?;
+                    let Some(name) = self.bsdf_ids.get(&id) else {
+                        return Err(self.err(c, format!("no top-level <bsdf id=\"{id}\"> to refer to")));
+                    };
+                    material = Some(name.clone());
+                }
+                "emitter" => {
+                    if emission.is_some() {
+                        return Err(self.err(c, "a second emitter for this shape"));
+                    }
+                    emission = Some(self.area(c)?);
+                }
+                other => {
+                    return Err(self.err(
+                        c,
+                        format!("unsupported element <{other}> in a shape (bsdf, ref, emitter)"),
+                    ));
+                }
+            }
+        }
+        let material = match material {
+            Some(m) => m,
+            None => {
+                // Mitsuba gives a shape without a BSDF a one-sided diffuse 0.5.
+                let name = "mitsuba-default".to_string();
+                self.materials
+                    .entry(name.clone())
+                    .or_insert(MaterialDesc::Diffuse(desc::Diffuse {
+                        reflectance: Fixed([0.5; 3]),
+                    }));
+                self.warn(
+                    n,
+                    "no BSDF: Mitsuba's default diffuse 0.5 (one-sided in Mitsuba, two-sided in photon-bench)",
+                );
+                name
+            }
+        };
+        let shape = match kind.as_str() {
+            "rectangle" => ShapeDesc::Quad(desc::Quad {
+                material,
+                corner: Some(Fixed([-1.0, -1.0, 0.0])),
+                edge_u: Some(Fixed([2.0, 0.0, 0.0])),
+                edge_v: Some(Fixed([0.0, 2.0, 0.0])),
+                center: None,
+                size: None,
+                facing: None,
+                subdivide: None,
+                transform,
+                emission,
+            }),
+            "cube" => ShapeDesc::Box(desc::Cuboid {
+                material,
+                min: Some(Fixed([-1.0; 3])),
+                max: Some(Fixed([1.0; 3])),
+                center: None,
+                size: None,
+                subdivide: None,
+                transform,
+                emission,
+            }),
+            "sphere" => ShapeDesc::Sphere(desc::Sphere {
+                material,
+                center: Fixed(self.point(&mut o, "center")?.unwrap_or(DVec3::ZERO).to_array()),
+                radius: self.float(&mut o, "radius")?.unwrap_or(1.0),
+                transform,
+                emission,
+            }),
+            "obj" => {
+                let Some((p, file)) = self.string(&mut o, "filename")? else {
+                    return Err(self.err(n, "expected <string name=\"filename\">"));
+                };
+                let face_normals = self.boolean(&mut o, "face_normals")?.unwrap_or(false);
+                let path = self.dir.join(&file);
+                let text = std::fs::read(&path)
+                    .map_err(|e| self.err(p, format!("filename: cannot read {}: {e}", path.display())))?;
+                let has_normals = text
+                    .split(|&b| b == b'\n')
+                    .any(|l| l.trim_ascii_start().starts_with(b"vn "));
+                if !face_normals && !has_normals {
+                    self.warn(
+                        n,
+                        "the OBJ has no normals: Mitsuba smooths vertex normals, photon-bench shades flat \
+                         (face_normals=\"true\" makes both flat)",
+                    );
+                }
+                ShapeDesc::Mesh(desc::Mesh {
+                    material,
+                    file,
+                    face_normals,
+                    transform,
+                    emission,
+                })
+            }
+            other => {
+                return Err(self.err(n, format!("unsupported shape {other:?} (obj, rectangle, cube, sphere)")));
+            }
+        };
+        self.finish(&o)?;
+        Ok(shape)
+    }
+
+    pub(super) fn area(&mut self, n: Node<'a, 'i>) -> Result<desc::EmissionDesc> {
+        let kind = self.required(n, "type")?;
+        if kind != "area" {
+            return Err(self.err(n, format!("unsupported emitter {kind:?} in a shape (area)")));
+        }
+        let mut o = self.obj(n)?;
+        let Some(radiance) = self.colour(&mut o, "radiance")? else {
+            return Err(self.err(n, "expected a radiance (<rgb name=\"radiance\" value=\"r, g, b\"/>)"));
+        };
+        if !radiance.iter().all(|&c| c >= 0.0) {
+            return Err(self.err(n, format!("radiance: expected each channel >= 0, got {:?}", radiance.0)));
+        }
+        if let Some(&c) = o.children.first() {
+            return Err(self.err(c, "unexpected element in an emitter"));
+        }
+        self.finish(&o)?;
+        Ok(desc::EmissionDesc {
+            radiance,
+            two_sided: false,
+        })
+    }
+}
