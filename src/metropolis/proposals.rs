@@ -4,6 +4,10 @@
 //! returns a candidate path Y with the ratio of transition densities T(X|Y) / T(Y|X) (both in
 //! the area-product measure of the vertices the proposal changes, with dropped deltas as in
 //! [`crate::path_space`]), or `None` when it cannot propose (a rejection).
+//!
+//! One file on purpose: the proposals share their helpers (sub-path regeneration, the
+//! perturbation samplers and their densities) and are read side by side when checking that
+//! every T(X|Y) / T(Y|X) matches its sampler; their tests live in `tests/metropolis.rs`.
 
 use super::{MetropolisParams, UserPathInfo};
 use crate::bsdf::TransportMode;

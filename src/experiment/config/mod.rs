@@ -1,0 +1,265 @@
+//! The experiment file (`experiments/*.toml`): which scenes, which strategies with which
+//! parameters, at which sample counts and seeds.
+//!
+//! ```toml
+//! name = "cornell"                 # results go to <output>/<name>/<run-id>/ (default: file stem)
+//! description = "…"                # optional, copied into the summary
+//! scenes = ["../scenes/cornell-empty.toml"]   # relative to this file
+//! spp = [1, 4, 16, 64]             # equal samples: one CSV row per strategy × scene × seed × spp
+//! seconds = [0.5, 2]               # equal time (preparation included); spp, seconds or both
+//! seeds = 2                        # independent runs, seeds base_seed … base_seed + seeds − 1
+//! base_seed = 0                    # optional
+//! references = "../references"     # optional: where <scene name>.exr references live
+//! output = "../results"            # optional
+//!
+//! [[strategy]]
+//! kind = "path"                    # see `bench list` for kinds, parameters and defaults
+//! label = "path-mis"               # optional, defaults to the kind; unique per experiment
+//! max_depth = [2, 4, 8]            # any parameter of the kind; unknown keys are errors
+//! ```
+//!
+//! ## Sweeps
+//!
+//! A parameter written as a list is swept: each `[[strategy]]` expands into the cartesian
+//! product of its list-valued parameters, taken in alphabetical order of their names, the last
+//! varying fastest. Every combination is built once while parsing, so a misspelled key or a bad
+//! value in any combination is refused. An expanded strategy is labelled
+//! `<label>[key=value,…]` with its swept values, e.g. `path[max_depth=4]`; a strategy without
+//! list-valued parameters keeps its plain label.
+//!
+//! ## A strategy's own scenes
+//!
+//! `scenes = ["rooms", "lantern"]` in a `[[strategy]]` table runs it on those of the
+//! experiment's scenes only (named by file stem), e.g. a proposal mix tuned per scene as in
+//! Fan et al. 2005's Table 1. Never swept.
+//!
+//! ## A strategy's own budgets
+//!
+//! A `[[strategy]]` table may restrict itself to some of the experiment's checkpoints with its
+//! own `spp = [...]` and `seconds = [...]` (subsets of the experiment's lists; `[]` for none of
+//! that kind), e.g. a slow strategy rendered at the small spp checkpoints and the time budgets
+//! only. These two keys are budgets, never swept, and no strategy has parameters of those names.
+//!
+//! A parameter declared as an array (`photon_guided`'s `grid`) takes a list of numbers as its
+//! single value: `grid = [4, 16]` (or `grid = [[4, 16]]`); `grid = [[4, 16], [8, 8]]` sweeps
+//! over two values. A list whose elements are all lists is always a sweep over those lists.
+
+mod strategies;
+#[cfg(test)]
+mod tests;
+
+pub use strategies::*;
+
+use crate::error::{Error, Result};
+use crate::strategy::Registry;
+use crate::util::join_clean;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Largest accepted samples per pixel (a typo guard; references use `bench reference`).
+pub const MAX_SPP: u32 = 1 << 20;
+/// Largest accepted time budget, seconds.
+pub const MAX_SECONDS: f64 = 86_400.0;
+/// Largest accepted number of seeds.
+pub const MAX_SEEDS: u32 = 1000;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ExperimentFile {
+    name: Option<String>,
+    description: Option<String>,
+    scenes: Vec<String>,
+    #[serde(default)]
+    spp: Vec<u32>,
+    #[serde(default)]
+    seconds: Vec<f64>,
+    #[serde(default = "one")]
+    seeds: u32,
+    #[serde(default)]
+    base_seed: u64,
+    references: Option<String>,
+    output: Option<String>,
+    #[serde(rename = "strategy")]
+    strategies: Vec<toml::Table>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// A validated experiment.
+#[derive(Debug, Clone)]
+pub struct Experiment {
+    pub file: PathBuf,
+    /// The experiment file's bytes, copied into every run directory.
+    pub text: String,
+    pub name: String,
+    pub description: String,
+    pub scenes: Vec<PathBuf>,
+    /// Equal-samples checkpoints, ascending and unique (may be empty).
+    pub spp: Vec<u32>,
+    /// Equal-time checkpoints in seconds of preparation + rendering, ascending and unique (may
+    /// be empty, but not together with `spp`).
+    pub seconds: Vec<f64>,
+    pub seeds: Vec<u64>,
+    pub references: PathBuf,
+    pub output: PathBuf,
+    pub strategies: Vec<StrategySpec>,
+}
+
+impl Experiment {
+    /// Loads an experiment whose strategies are the crate's ([`Registry::builtin`]).
+    pub fn load(file: &Path) -> Result<Experiment> {
+        Self::load_with(file, &Registry::builtin())
+    }
+
+    /// Loads an experiment whose strategies are those of `registry` (the crate's and any
+    /// registered from outside: `docs/adding-a-strategy.md`).
+    pub fn load_with(file: &Path, registry: &Registry) -> Result<Experiment> {
+        let text = std::fs::read_to_string(file)
+            .map_err(|e| Error::new(format!("{}: cannot read experiment file: {e}", file.display())))?;
+        Self::parse_with(file, text, registry)
+    }
+
+    /// Parses and validates experiment text with the crate's strategies.
+    pub fn parse(file: &Path, text: String) -> Result<Experiment> {
+        Self::parse_with(file, text, &Registry::builtin())
+    }
+
+    /// Parses and validates experiment text; `file` locates relative paths and names errors.
+    pub fn parse_with(file: &Path, text: String, registry: &Registry) -> Result<Experiment> {
+        let at = |msg: String| Error::new(format!("{}: {msg}", file.display()));
+        let raw: ExperimentFile = toml::from_str(&text).map_err(|e| at(describe_toml_error(&e, &text)))?;
+        let dir = file.parent().unwrap_or(Path::new("."));
+        let name = match raw.name {
+            Some(n) => n,
+            None => file
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "experiment".into()),
+        };
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+            return Err(at(format!("name: expected letters, digits, '-' or '_', got {name:?}")));
+        }
+        if raw.scenes.is_empty() {
+            return Err(at("scenes: expected at least one scene file".into()));
+        }
+        if raw.spp.is_empty() && raw.seconds.is_empty() {
+            return Err(at(
+                "spp, seconds: expected a non-empty list of sample counts (spp) or time budgets (seconds)".into(),
+            ));
+        }
+        if let Some(bad) = raw.seconds.iter().find(|&&s| !(s > 0.0 && s <= MAX_SECONDS)) {
+            return Err(at(format!(
+                "seconds: expected time budgets in (0, {MAX_SECONDS}], got {bad}"
+            )));
+        }
+        let mut seconds = raw.seconds.clone();
+        seconds.sort_by(f64::total_cmp);
+        seconds.dedup();
+        if let Some(bad) = raw.spp.iter().find(|&&s| s == 0 || s > MAX_SPP) {
+            return Err(at(format!("spp: expected sample counts in 1..={MAX_SPP}, got {bad}")));
+        }
+        let mut spp = raw.spp.clone();
+        spp.sort_unstable();
+        spp.dedup();
+        if raw.seeds == 0 || raw.seeds > MAX_SEEDS {
+            return Err(at(format!(
+                "seeds: expected a count in 1..={MAX_SEEDS}, got {}",
+                raw.seeds
+            )));
+        }
+        let seeds = (0..raw.seeds as u64).map(|i| raw.base_seed.wrapping_add(i)).collect();
+        if raw.strategies.is_empty() {
+            return Err(at("strategy: expected at least one [[strategy]] table".into()));
+        }
+        let scene_files: Vec<PathBuf> = raw.scenes.iter().map(|s| join_clean(dir, s)).collect();
+        let stems: Vec<String> = scene_files.iter().map(|f| scene_stem(f)).collect();
+        let mut strategies: Vec<StrategySpec> = Vec::new();
+        for (i, mut table) in raw.strategies.into_iter().enumerate() {
+            let (own_spp, own_seconds) =
+                strategy_budgets(&mut table, &spp, &seconds).map_err(|e| at(format!("strategy[{i}]{e}")))?;
+            let own_scenes = strategy_scenes(&mut table, &stems).map_err(|e| at(format!("strategy[{i}]{e}")))?;
+            for mut spec in strategy_specs(table, registry).map_err(|e| at(format!("strategy[{i}]{e}")))? {
+                spec.spp = own_spp.clone();
+                spec.seconds = own_seconds.clone();
+                spec.scenes = own_scenes.clone();
+                let clash = strategies
+                    .iter()
+                    .find(|s| s.label == spec.label || s.file_stem() == spec.file_stem());
+                if let Some(other) = clash {
+                    return Err(at(format!(
+                        "strategy[{i}].label: `{}` is used twice (or names the same files as `{}`); give each strategy a unique label",
+                        spec.label, other.label
+                    )));
+                }
+                strategies.push(spec);
+            }
+        }
+        Ok(Experiment {
+            file: file.to_path_buf(),
+            text,
+            name,
+            description: raw.description.unwrap_or_default(),
+            scenes: scene_files,
+            spp,
+            seconds,
+            seeds,
+            references: join_clean(dir, raw.references.as_deref().unwrap_or("../references")),
+            output: join_clean(dir, raw.output.as_deref().unwrap_or("../results")),
+            strategies,
+        })
+    }
+}
+
+/// See [`StrategySpec::file_stem`].
+pub fn file_stem(label: &str) -> String {
+    let mapped: String = label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    let mut out = String::with_capacity(mapped.len());
+    for c in mapped.chars() {
+        if !(c == '-' && out.ends_with('-')) {
+            out.push(c);
+        }
+    }
+    out.trim_end_matches('-').to_string()
+}
+
+/// The name a scene file is known by in `scenes = [...]` of a strategy: its file stem.
+pub fn scene_stem(file: &Path) -> String {
+    file.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// A one-line description of a TOML error with its line and column.
+pub fn describe_toml_error(e: &toml::de::Error, text: &str) -> String {
+    let msg = e.message().trim().to_string();
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            let line_start = text[..span.start.min(text.len())].rfind('\n').map_or(0, |p| p + 1);
+            let col = span.start - line_start + 1;
+            // Name the key of a `key = value` line, so that type and range errors say which field.
+            let line_text = text[line_start..].lines().next().unwrap_or("");
+            let key = line_text.split_once('=').map(|(k, _)| k.trim()).filter(|k| {
+                !k.is_empty()
+                    && k.chars()
+                        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
+            });
+            match key {
+                Some(key) if !msg.contains(&format!("`{key}`")) => format!("line {line}, column {col}: {key}: {msg}"),
+                _ => format!("line {line}, column {col}: {msg}"),
+            }
+        }
+        None => msg,
+    }
+}
