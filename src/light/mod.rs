@@ -5,17 +5,16 @@
 //! points uniformly by area. Next-event estimation on eye paths ([`LightSampling`]) chooses
 //! either by power or by a local estimate of each light's contribution at the shading point
 //! ([`LightSelection`]), and samples sphere lights either by area or uniformly in the cone they
-//! subtend ([`SphereSampling`]); [`selection::LightContext`] keeps both choices for one shading point, so
+//! subtend ([`SphereSampling`]); [`crate::scene::light_selection::LightContext`] keeps both choices for one shading point, so
 //! that the MIS weight of a BSDF-sampled hit on a light uses the density light sampling there
 //! would have had.
 
 //!
 //! What lives here: emission, points on lights and their densities ([`AreaLight`],
 //! [`sphere_cone`]), and the per-receiver light selection of next-event estimation
-//! ([`selection`]). What does not: the scene's list of lights (a [`crate::scene::Scene`] field)
+//! ([`crate::scene::light_selection`], which reads the scene). What does not: the scene's list of lights (a [`crate::scene::Scene`] field)
 //! and any integrator logic.
 
-pub mod selection;
 pub mod sphere_cone;
 
 #[cfg(test)]
@@ -96,7 +95,7 @@ crate::declare_choice! {
 /// `"power"` picks light i with probability Φᵢ / Σ Φ (luminance of the emitted power,
 /// `Scene::light_selection`): one table for the whole scene, blind to where the shading point
 /// is. `"local"` picks ∝ an estimate of light i's unoccluded contribution at the shading point,
-/// [`selection::local_weight`] = Y(Leᵢ) · Ωᵢ(x) · c̄ᵢ(x) (solid angle times an upper bound of the receiver
+/// [`crate::scene::light_selection::local_weight`] = Y(Leᵢ) · Ωᵢ(x) · c̄ᵢ(x) (solid angle times an upper bound of the receiver
 /// cosine), the per-point importance many-light samplers use [Shirley, Wang & Zimmerman 1996,
 /// "Monte Carlo Techniques for Direct Lighting Calculations", ACM TOG 15(1); Conty Estevez &
 /// Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree Splitting", HPG, whose
@@ -110,7 +109,7 @@ crate::declare_choice! {
 /// BSDF); any other light's weight is positive (up to f32 underflow of Ω for a light seen
 /// exactly edge-on, whose contribution ∝ cos θ' vanishes with it). With MIS a zero-probability
 /// light is covered by BSDF sampling anyway, as long as the MIS weight uses the same pmf
-/// ([`selection::LightContext::pdf_w`]).
+/// ([`crate::scene::light_selection::LightContext::pdf_w`]).
 pub enum LightSelection { Power = "power", Local = "local" }
 }
 

@@ -10,7 +10,7 @@ use std::f32::consts::TAU;
 /// centre: 1 − cos θmax, computed as sin²θmax / (1 + cos θmax) so that small, distant spheres
 /// do not lose it to cancellation.
 #[inline]
-pub(super) fn one_minus_cos_max(r2: f32, d2: f32) -> f32 {
+pub(crate) fn one_minus_cos_max(r2: f32, d2: f32) -> f32 {
     let sin2 = (r2 / d2).min(1.0);
     sin2 / (1.0 + (1.0 - sin2).sqrt())
 }

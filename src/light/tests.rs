@@ -1,12 +1,12 @@
 //! Tests of light sampling: χ² of the cone sampler, irradiance estimates, local selection
 //! and its pmf.
 
-use super::selection::*;
 use super::*;
 use crate::photon::test_scenes::SceneBuilder;
 use crate::sampling::Rng;
 use crate::sampling::chi2::{CHI2_ALPHA, DirectionTest, chi2_statistic, chi2_test_directions};
 use crate::scene::Scene;
+use crate::scene::light_selection::*;
 
 /// The cone sampler, as next-event estimation uses it (direction from x to the sampled
 /// point), draws directions with the density it reports: χ² over the sphere of directions,

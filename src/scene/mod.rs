@@ -12,6 +12,7 @@
 
 pub mod desc;
 pub mod export;
+pub mod light_selection;
 pub mod limits;
 pub mod load;
 pub mod mitsuba;

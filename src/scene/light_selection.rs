@@ -2,14 +2,14 @@
 //! scene) or ∝ a local estimate of each light's unoccluded contribution, and the selection
 //! probability the MIS weight of a BSDF-sampled hit on a light needs.
 
-use super::sphere_cone::one_minus_cos_max;
-use super::{
+use super::Scene;
+use crate::color::luminance;
+use crate::geometry::Primitive;
+use crate::light::sphere_cone::one_minus_cos_max;
+use crate::light::{
     AreaLight, LOCAL_SELECTION_MAX_LIGHTS, LightSample, LightSampling, LightSelection, PointPdf, Receiver,
     SphereSampling, sample_sphere_cone, sphere_cone_pdf,
 };
-use crate::color::luminance;
-use crate::geometry::Primitive;
-use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::TAU;
 
