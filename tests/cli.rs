@@ -13,19 +13,11 @@ fn bench(dir: &Path, args: &[&str]) -> Output {
         .unwrap()
 }
 
+mod common;
+
 /// A temporary project: `scenes/tiny.toml` (cornell-empty at 16 × 12) and an experiment.
 fn project() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    let root = dir.path();
-    for sub in ["scenes", "experiments"] {
-        std::fs::create_dir_all(root.join(sub)).unwrap();
-    }
-    let scene = std::fs::read_to_string("scenes/cornell-empty.toml")
-        .unwrap()
-        .replace("resolution = [80, 60]", "resolution = [16, 12]");
-    std::fs::write(root.join("scenes/tiny.toml"), scene).unwrap();
-    std::fs::write(root.join("experiments/tiny.toml"), EXPERIMENT).unwrap();
-    dir
+    common::tiny_project(EXPERIMENT)
 }
 
 const EXPERIMENT: &str = r#"

@@ -74,17 +74,11 @@ intensity = 2.0
 kind = "path"
 "#;
 
+mod common;
+
 fn project() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::tiny_project(EXPERIMENT);
     let root = dir.path();
-    for sub in ["scenes", "experiments"] {
-        std::fs::create_dir_all(root.join(sub)).unwrap();
-    }
-    let scene = std::fs::read_to_string("scenes/cornell-empty.toml")
-        .unwrap()
-        .replace("resolution = [80, 60]", "resolution = [16, 12]");
-    std::fs::write(root.join("scenes/tiny.toml"), scene).unwrap();
-    std::fs::write(root.join("experiments/tiny.toml"), EXPERIMENT).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_bench"))
         .current_dir(root)
         .args(["reference", "scenes/tiny.toml", "--spp", "4"])

@@ -218,7 +218,7 @@ crate::declare_params! {
         /// short chain has no start-up bias, and it caps how many iterations a chain stuck in a
         /// state its proposals cannot leave (L S D S E in `box`) piles onto one photon or pixel:
         /// 64 → 8192 chains took MPS on box from rms_rel_lum 0.44 to 0.19 and MLT from 5.8 to 0.90
-        /// (docs, "Reproducing Fan et al. 2005").
+        /// (README, "Reproducing Fan et al. 2005").
         chains: u32 = 8192, range Range::int(1, 65_536);
         /// PM cone half-angle γ in degrees (paper: 30).
         pm_gamma_deg: f32 = 30.0, range Range::above_to(0.0, 90.0).of("an angle");
