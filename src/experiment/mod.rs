@@ -1,9 +1,9 @@
 //! Experiments: the serde model of `experiments/*.toml`, references, and the runner.
 //!
 //! What lives here: [`config`] (the experiment file model, `[[strategy]]` tables and sweeps,
-//! validated against the strategy [`crate::strategy::Registry`]), [`run`] (the plan of cells,
+//! validated against the strategy [`crate::strategy::Registry`]), [`run`](mod@run) (the plan of cells,
 //! preparation, passes and checkpoints, the cell cache, shards and merge, run directories),
-//! [`reference`] (converged reference images), [`map_error`] (`bench map-error`). What does
+//! [`reference`](mod@reference) (converged reference images), [`map_error`] (`bench map-error`). What does
 //! not: rendering algorithms (strategies) and report formatting (the runner calls
 //! [`crate::report`] with rows and the run directory).
 

@@ -14,7 +14,7 @@
 //! and the estimator's weight for a Lambertian surface f_r cos θ / p(ω) = ρ · Φ_total /
 //! (cells · Φ_c) is the paper's scaling factor s [eq. (11)].
 //!
-//! Empty cells: the paper "eliminate[s] all regions with zero energy (probability) by adding a
+//! Empty cells: the paper "eliminate\[s\] all regions with zero energy (probability) by adding a
 //! small fraction of the overall energy stored within the unit square to these regions". Two
 //! readings, both selectable ([`EmptyCells`]): the fraction ε of Φ_total is *shared* by all
 //! empty cells (the project digest's decision, `NOTES.md`), or *each* empty cell receives

@@ -43,6 +43,10 @@
 //! A parameter declared as an array (`photon_guided`'s `grid`) takes a list of numbers as its
 //! single value: `grid = [4, 16]` (or `grid = [[4, 16]]`); `grid = [[4, 16], [8, 8]]` sweeps
 //! over two values. A list whose elements are all lists is always a sweep over those lists.
+//!
+//! Files: this one (the experiment file model and its validation), [`strategies`]
+//! (`[[strategy]]` tables: kinds, labels, budgets, sweeps), `tests.rs`. What a strategy's keys
+//! mean is declared by the strategy ([`crate::params`]), not here.
 
 mod strategies;
 #[cfg(test)]

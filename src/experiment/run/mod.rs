@@ -18,6 +18,11 @@
 //! and process that writes it; the next run removes the ones whose process is gone from this
 //! host ([`remove_leftovers`]) and leaves alone those of live processes and of other hosts (a
 //! shared results directory on a cluster), which a run there removes.
+//!
+//! Files: this one (run, shards, merge, the plan of cells), [`cell`] (one cell through its
+//! checkpoints), [`cache`] (cell hashes and the cache), [`run_dir`] (run directories and their
+//! owners), [`images`] (strips and progression grids). Plots, CSV and summaries are the
+//! report's ([`crate::report`]).
 
 mod cache;
 mod cell;

@@ -15,8 +15,8 @@
 //! (meshes, [`LoadStats`]).
 //!
 //! Files: this one (entry points, statistics, hashing), [`locate`] (stages 1–2: errors located
-//! by key path and line/column), [`validate`] (stage 3: values, camera, materials), [`transform`]
-//! (shape transforms in f64), [`mesh`] (primitives, `subdivide`, OBJ), [`user_paths`] (the UP
+//! by key path and line/column), [`validate`] (stage 3: values, camera, materials), [`transform`](mod@transform)
+//! (shape transforms in f64), [`mesh`] (primitives, `subdivide`, OBJ), [`user_paths`](mod@user_paths) (the UP
 //! proposal's paths), `tests.rs` (including the fuzz tests). What does not live here: the
 //! Mitsuba importer ([`super::mitsuba`]) and anything a renderer does with the scene.
 

@@ -1,5 +1,5 @@
 //! Mitsuba 3 XML scenes (`scenes/*.xml`): read into the same [`SceneDesc`] a TOML scene file
-//! becomes, and written from one ([`export`]).
+//! becomes, and written from one ([`super::export`]).
 //!
 //! **Decision: the XML loader produces a [`SceneDesc`].** Everything downstream of the
 //! description — validation, the f32 geometry, the content hash, references, experiments — is

@@ -51,6 +51,12 @@
 //! `caustic_nearest`, `max_radius`, `gather_rays`, `secondary_gather_rays`, `short_gather`,
 //! `precomputed_irradiance`, `irradiance_cache`; `photons` does not apply). `max_depth`
 //! bounds both the chain's paths and the gather's specular bounces.
+//!
+//! Files: this one (parameters, the strategy, preparation), [`photon_power`] (where a path's
+//! photon is stored and the power F it gets; repeated paths merged), [`importons`] (the
+//! renderer's importance estimated from importons), [`photon_sampling`] (running the chains and
+//! depositing photons), `tests.rs`. The chain itself lives in [`crate::metropolis`] and the final
+//! gather in [`super::photon_map`]; this folder only decides where photons go and what they carry.
 
 mod importons;
 mod photon_power;

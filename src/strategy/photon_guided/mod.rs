@@ -62,6 +62,11 @@
 //! from the vertex's side (incoming direction in the hemisphere of the normal facing `wo`) on a
 //! surface facing the same way (stored normal · n > 0), so light on the other side of a thin
 //! wall never steers the pdf.
+//!
+//! Files: this one (parameters, the strategy, tracing the indirect photon map), [`sampler`]
+//! (Jensen's pdf at a vertex and the precomputed pdfs), `tests.rs`. The grid itself
+//! ([`crate::sampling::photon_grid`]) and the path tracer it plugs into ([`super::path`]) live
+//! elsewhere.
 
 mod sampler;
 #[cfg(test)]

@@ -15,7 +15,7 @@ use std::f32::consts::FRAC_1_PI;
 
 impl PhotonMapStrategy {
     /// Christensen 1999, Fig. 1 (b)–(e), from this strategy's own maps (Fig. 1(a), the photon
-    /// map itself, is [`Strategy::photons`]). Every image shows radiance on the renders' scale,
+    /// map itself, is [`crate::photon::picture::distribution`]). Every image shows radiance on the renders' scale,
     /// so that one tone mapping (the renders' sRGB preview, exposure 0) serves them all:
     /// irradiance E is shown as E/π, the radiance a white Lambertian surface under E reflects
     /// (the paper's "dimmed for display"; π dims less than the paper's unstated factor but

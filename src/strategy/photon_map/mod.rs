@@ -76,6 +76,11 @@
 //! position or a specular path the overture did not take) a full final gather is done, uncached
 //! (`cache_misses`). A record's gather is the final gather's (its own `gather_rays`
 //! cosine-distributed rays, secondary gathers for short ones), E = π/G Σ L_j.
+//!
+//! Files: this one (parameters, the strategy, building the maps), [`final_gather`] (camera
+//! paths, the direct term, gather rays and what they read), [`irradiance_cache`] (Ward's cache),
+//! [`figures`] (Christensen's Fig. 1), [`counters`]. Photon tracing, kd-trees, estimates and the
+//! precomputed irradiance are shared machinery and live in [`crate::photon`], not here.
 
 mod counters;
 mod figures;
