@@ -13,7 +13,7 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(
     name = "bench",
-    version,
+    version = concat!(env!("CARGO_PKG_VERSION"), " (", env!("PHOTON_BENCH_GIT_REVISION"), ")"),
     about = "Benchmark Monte Carlo light-transport strategies against reference images"
 )]
 struct Cli {
@@ -161,13 +161,7 @@ fn main() -> ExitCode {
             e.exit()
         }
         Err(e) => {
-            let text = e.to_string();
-            let first = text
-                .lines()
-                .next()
-                .unwrap_or("invalid arguments")
-                .trim_start_matches("error: ");
-            eprintln!("error: {first} (see `bench --help`)");
+            eprintln!("error: {}", one_line_usage_error(&e.to_string(), &subcommand_named()));
             return ExitCode::from(2);
         }
     };
@@ -179,6 +173,47 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// clap's usage error on one line, detail kept: the message, what it lists (missing arguments,
+/// valid values), its tips (`a similar subcommand exists: 'run'`), and the help of the
+/// subcommand the usage line names.
+fn one_line_usage_error(text: &str, subcommand: &Option<String>) -> String {
+    let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
+    let mut message = lines
+        .next()
+        .unwrap_or("invalid arguments")
+        .trim_start_matches("error: ")
+        .to_string();
+    let mut details = Vec::new();
+    let mut help = match subcommand {
+        Some(name) => format!("bench {name} --help"),
+        None => "bench --help".to_string(),
+    };
+    for line in lines {
+        if let Some(usage) = line.strip_prefix("Usage: ") {
+            let words: Vec<&str> = usage
+                .split_whitespace()
+                .take_while(|w| !w.starts_with(['<', '[', '-']))
+                .collect();
+            help = format!("{} --help", words.join(" "));
+        } else if !line.starts_with("For more information") {
+            details.push(line.to_string());
+        }
+    }
+    if !details.is_empty() {
+        let joiner = if message.ends_with(':') { " " } else { "; " };
+        message = format!("{message}{joiner}{}", details.join(", "));
+    }
+    format!("{message} (see `{help}`)")
+}
+
+/// The subcommand the command line names, if any (for the help a usage error points to).
+fn subcommand_named() -> Option<String> {
+    use clap::CommandFactory;
+    let cli = Cli::command();
+    let names: Vec<String> = cli.get_subcommands().map(|c| c.get_name().to_string()).collect();
+    std::env::args().skip(1).find(|a| names.contains(a))
 }
 
 /// How a command that did not fail ended.

@@ -69,18 +69,11 @@ pub fn join_clean(base: &Path, rel: &str) -> PathBuf {
     }
 }
 
-/// The git revision of the working tree the binary runs in (`git describe --always --dirty`),
-/// or "unknown" outside a repository.
+/// The git revision the binary was built from: the commit, `-dirty` when the sources that went
+/// into the binary differed from it, `unknown` when built outside a git checkout (`build.rs`).
+/// Fixed at compile time, so it does not depend on the directory the binary runs in.
 pub fn git_revision() -> String {
-    std::process::Command::new("git")
-        .args(["describe", "--always", "--dirty", "--abbrev=12"])
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .and_then(|o| String::from_utf8(o.stdout).ok())
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "unknown".to_string())
+    env!("PHOTON_BENCH_GIT_REVISION").to_string()
 }
 
 /// The CPU model name from /proc/cpuinfo, or "unknown".

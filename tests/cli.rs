@@ -770,3 +770,73 @@ fn map_error_prints_a_row_per_photon_map_strategy_and_seed() {
         &["experiments/nope.toml"],
     );
 }
+
+/// Usage errors stay one line with exit status 2, but keep clap's detail: what is missing, the
+/// suggestion for a typo, and the help of the subcommand at fault.
+#[test]
+fn usage_errors_name_what_is_missing_and_suggest_fixes() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    assert_refused(&bench(root, &["run"]), &["<EXPERIMENT>", "`bench run --help`"]);
+    assert_refused(&bench(root, &["lsit"]), &["'lsit'", "'list'", "`bench --help`"]);
+    assert_refused(
+        &bench(root, &["reference", "s.toml", "--spp", "x"]),
+        &["'x'", "--spp", "`bench reference --help`"],
+    );
+    assert_refused(
+        &bench(root, &["run", "x.toml", "--forse"]),
+        &["'--forse'", "--force", "`bench run --help`"],
+    );
+}
+
+/// Rows record the revision the binary was built from, whatever directory it runs in: here a
+/// fresh git repository of its own, whose revision must not be taken for the code's.
+#[test]
+fn provenance_is_the_revision_the_binary_was_built_from() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    let git = |args: &[&str]| {
+        let o = std::process::Command::new("git")
+            .current_dir(root)
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "git {args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    };
+    git(&["init", "-q"]);
+    std::fs::write(root.join("a.txt"), "a").unwrap();
+    git(&["add", "a.txt"]);
+    git(&["-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "other"]);
+    let other = git(&["rev-parse", "--short=12", "HEAD"]);
+
+    let built = env!("PHOTON_BENCH_GIT_REVISION");
+    let o = bench(root, &["--version"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains(built));
+    std::fs::create_dir_all(root.join("scenes")).unwrap();
+    let scene = std::fs::read_to_string("scenes/cornell-empty.toml")
+        .unwrap()
+        .replace("resolution = [80, 60]", "resolution = [8, 6]");
+    std::fs::write(root.join("scenes/tiny.toml"), scene).unwrap();
+    let o = bench(root, &["reference", "scenes/tiny.toml", "--spp", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let sidecar = std::fs::read_to_string(root.join("references/tiny.json")).unwrap();
+    assert!(sidecar.contains(&format!("\"git_revision\": \"{built}\"")), "{sidecar}");
+    assert!(
+        !sidecar.contains(&other),
+        "the other repository's revision was recorded"
+    );
+    // The checkout this test runs in built the binary: the revision names its commit.
+    let ours = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .output()
+        .unwrap();
+    let ours = String::from_utf8_lossy(&ours.stdout).trim().to_string();
+    if !ours.is_empty() {
+        assert!(built.starts_with(&ours), "{built} vs {ours}");
+    }
+}
