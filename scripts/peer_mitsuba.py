@@ -4,7 +4,7 @@
 Same scene as `scenes/cornell-box.toml` (geometry, reflectances, light), 256x256, box pixel
 filter, max_depth 5 (= our max_depth 4: Mitsuba counts segments), no Russian roulette (Mitsuba
 starts it at depth 5). Prints samples/s and the thread count; run it right after `bench perf`
-on the same machine and quote the ratio (see README, "Performance").
+on the same machine and quote the ratio (see docs/design.md, "Performance").
 
     pip install mitsuba          # 3.x; variant scalar_rgb needs nothing else
     python3 scripts/peer_mitsuba.py --spp 64 --threads 2

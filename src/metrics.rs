@@ -26,7 +26,7 @@
 //!   sees, in units of full scale (0 … 1). Jensen 1995 reports MSE between computed images and
 //!   a reference without saying whether they were the 8-bit images of its figures; this is that
 //!   reading. A saturated region (a light, a hot spot seen directly) has no error here, so when
-//!   such pixels dominate the MSE of the radiance the two tell different stories (README).
+//!   such pixels dominate the MSE of the radiance the two tell different stories (docs/reproductions/jensen1995.md).
 //! - **efficiency** = `1 / (MSE · time)` (Veach 1997, §2.5 "efficiency of an estimator"; Pharr,
 //!   Jakob & Humphreys, PBRT 4th ed., §2.1.4), higher is better.
 

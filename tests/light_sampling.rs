@@ -8,7 +8,7 @@
 //! every point: L = R/π (E_quad + E_a + E_b) + T/π E_c, with E = π Le r² cos θ / d² for a
 //! sphere and Lambert's formula for the quad. The MIS weight of a BSDF-sampled ray that hits a
 //! light must use the density light sampling had at that vertex: the wrong pmf or the wrong
-//! sphere density there breaks the agreement (see the README for the seeded bugs it caught).
+//! sphere density there breaks the agreement (see docs/path.md for the seeded bugs it caught).
 
 use glam::{DVec3, Vec2, Vec3};
 use photon_bench::light::{LightSelection, SphereSampling};

@@ -1049,7 +1049,7 @@ fn shared_starts(scene: &Scene, params: &MetropolisParams) -> f64 {
 /// paths per chain (the fixed 100 000 before 2026-11-23, at mps05's 8192 chains) starts many
 /// chains on the same few heavy paths, and their photons crowd together, which the k-nearest
 /// estimate reads as density (`bench map-error`: interior mean ratio 1.068 ± 0.014 against
-/// 1.015 ± 0.014 with the default pool; README, "Reproducing Fan et al. 2005", item 10). The
+/// 1.015 ± 0.014 with the default pool; docs/reproductions/fan2005.md, item 10). The
 /// default pool grows with the chains and shares far fewer starts (measured: 24 % of 4096
 /// chains against 60 % with 12 paths per chain; the heaviest paths, deservedly, still start
 /// several chains each).

@@ -218,7 +218,7 @@ crate::declare_params! {
         /// short chain has no start-up bias, and it caps how many iterations a chain stuck in a
         /// state its proposals cannot leave (L S D S E in `box`) piles onto one photon or pixel:
         /// 64 → 8192 chains took MPS on box from rms_rel_lum 0.44 to 0.19 and MLT from 5.8 to 0.90
-        /// (README, "Reproducing Fan et al. 2005").
+        /// (docs/reproductions/fan2005.md).
         chains: u32 = 8192, range Range::int(1, 65_536);
         /// PM cone half-angle γ in degrees (paper: 30).
         pm_gamma_deg: f32 = 30.0, range Range::above_to(0.0, 90.0).of("an angle");
@@ -243,7 +243,7 @@ crate::declare_params! {
 /// estimate reads crowds as density. Measured with `bench map-error` on `lantern` (8 seeds,
 /// 8192 chains, 500 000 mutations), the interior mean ratio went 1.068 ± 0.014 with 12 samples
 /// per chain (the earlier fixed 100 000), 1.015 ± 0.014 with 100, photon mapping's k / (k − 1)
-/// (README, "Reproducing Fan et al. 2005", item 10).
+/// (docs/reproductions/fan2005.md, item 10).
 pub const B_SAMPLES_PER_CHAIN: u64 = 100;
 
 impl MetropolisParams {

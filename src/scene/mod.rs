@@ -1,7 +1,7 @@
 //! Scenes as plain data: camera, materials, primitives, lights and user paths. Strategies read
 //! a [`Scene`]; nothing mutates it after loading.
 //!
-//! `load` reads `scenes/*.toml` (format documented in the README and in [`desc`]) with OBJ/MTL
+//! `load` reads `scenes/*.toml` (format documented in `docs/user-guide.md` and in [`desc`]) with OBJ/MTL
 //! meshes through tobj, validates every field, and assembles the runtime scene here. Mitsuba 3
 //! XML scenes (`scenes/*.xml`) are translated into the same description by [`mitsuba`] first.
 //!

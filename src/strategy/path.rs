@@ -6,7 +6,7 @@
 //! defaults and ranges).
 //!
 //! **Decision: defaults `"power"` and `"area"`.** At equal samples neither option was worse on
-//! any shipped scene (README), but both cost time per sample — local selection +20 % on
+//! any shipped scene (docs/path.md), but both cost time per sample — local selection +20 % on
 //! `cornell-box`, where it gains nothing; cone sampling +28 % on `lantern`, since it traces a
 //! shadow ray for every sample where area sampling skips the far side — and local selection
 //! ignores occlusion, so it is not never-worse. The old defaults also keep every committed
@@ -42,7 +42,7 @@ crate::declare_choice! {
 /// its photons and paths) terminated paths. The two agree for cosine-sampled Lambertian paths.
 /// They differ once directions are *guided*: β then carries the guiding weight s of Jensen's
 /// eq. (11), which is small exactly for directions towards bright light, so throughput roulette
-/// kills the paths guiding aimed best (measured on `cornell-empty`, README: it undoes most of
+/// kills the paths guiding aimed best (measured on `cornell-empty`, docs/reproductions/jensen1995.md: it undoes most of
 /// the variance reduction); albedo roulette does not see s.
     pub enum Roulette { Throughput = "throughput", Albedo = "albedo" }
 }

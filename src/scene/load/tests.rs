@@ -219,7 +219,7 @@ fn user_paths_expand_one_cone_angle_to_every_segment() {
     assert_eq!(scene.user_paths[0].points[1], Vec3::ZERO);
 }
 
-/// The module doc of `desc` is the format's reference (and the README's): it must load.
+/// The module doc of `desc` is the format's reference (and the user guide's): it must load.
 #[test]
 fn the_documented_example_loads() {
     let source = include_str!("../desc.rs");
