@@ -219,7 +219,8 @@ pub fn write_summary(
     let _ = writeln!(
         md,
         "Seeds per checkpoint: {seeds}. Each cell: mean ± standard deviation over seeds, then the {:.0} % \
-         confidence interval of the mean (Student t with n − 1 degrees of freedom; none for one seed). \
+         confidence interval of the mean (Student t with n − 1 degrees of freedom, on the log scale by the delta \
+         method, so it stays above zero; none for one seed). \
          Budgets: `N spp` (equal samples) or `T s` (equal time, preparation included).\n",
         CONFIDENCE * 100.0
     );
