@@ -72,7 +72,7 @@ impl Figure {
     pub fn write_png(&self, path: &Path) -> Result<()> {
         match &self.image {
             FigureImage::Radiance(image) => write_png(image, path, 0.0),
-            FigureImage::Display(rgb) => write_rgb8_png(rgb.clone(), path),
+            FigureImage::Display(rgb) => write_rgb8_png(rgb, path),
         }
     }
 }

@@ -207,7 +207,7 @@ pub fn read_exr(path: &Path) -> Result<Image> {
 }
 
 /// Encodes an 8-bit RGB buffer as PNG and writes it atomically.
-pub fn write_rgb8_png(rgb: image::RgbImage, path: &Path) -> Result<()> {
+pub fn write_rgb8_png(rgb: &image::RgbImage, path: &Path) -> Result<()> {
     let mut bytes = std::io::Cursor::new(Vec::new());
     rgb.write_to(&mut bytes, image::ImageFormat::Png)
         .context(format_args!("{}: cannot encode PNG", path.display()))?;
@@ -224,7 +224,7 @@ pub fn write_png(image: &Image, path: &Path, exposure_stops: f32) -> Result<()> 
         let p = image.get(x, y) * scale;
         image::Rgb([srgb8(p.x), srgb8(p.y), srgb8(p.z)])
     });
-    write_rgb8_png(rgb, path)
+    write_rgb8_png(&rgb, path)
 }
 
 /// Places `images` side by side, left to right and top-aligned, with `gap_px` black columns

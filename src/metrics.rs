@@ -277,7 +277,7 @@ pub fn write_error_png(image: &Image, reference: &Image, path: &Path) -> Result<
     let rgb = image::RgbImage::from_fn(image.width, image.height, |x, y| {
         image::Rgb(error_map_colour(errors[y as usize * width + x as usize]))
     });
-    write_rgb8_png(rgb, path)
+    write_rgb8_png(&rgb, path)
 }
 
 #[cfg(test)]

@@ -210,8 +210,11 @@ macro_rules! float_value {
             }
             /// TOML source that parses back as a float: `1.0`, not `1`.
             fn toml(&self) -> Option<String> {
+                if self.is_nan() {
+                    return Some("nan".to_string());
+                }
                 let s = self.to_string();
-                let float_like = s.contains(['.', 'e', 'i', 'n']);
+                let float_like = s.contains(['.', 'e', 'i']);
                 Some(if float_like { s } else { format!("{s}.0") })
             }
             /// As Rust prints it (`1`, `0.01`, `inf`): the column rows have always recorded.

@@ -134,3 +134,13 @@ fn columns_flatten_tables_and_show_absent_values_as_none() {
         ]
     );
 }
+
+#[test]
+fn floats_print_as_toml_floats() {
+    for v in [1.0f32, 0.01, 1e-10, 3e12, f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+        let text = format!("x = {}", Value::toml(&v).unwrap());
+        let parsed: toml::Table = toml::from_str(&text).unwrap_or_else(|e| panic!("{text}: {e}"));
+        let back = parsed["x"].as_float().unwrap_or_else(|| panic!("{text} is no float")) as f32;
+        assert!(back == v || (back.is_nan() && v.is_nan()), "{text}");
+    }
+}

@@ -133,16 +133,19 @@ pub struct MpsConfig {
 }
 
 impl MpsConfig {
-    /// Gather keys that `mps` does not take or takes from the chain.
-    const NOT_GATHER: [&'static str; 2] = ["photons", "max_depth"];
+    /// Is `key` (or the table it belongs to) a gather parameter `mps` takes? Not `photons` (the
+    /// photon count follows from `mutations`) nor `max_depth` (the chain's).
+    fn takes_gather_key(key: &str) -> bool {
+        let top = key.split('.').next().unwrap_or_default();
+        !["photons", "max_depth"].contains(&top)
+    }
 }
 
 impl Params for MpsConfig {
     fn specs() -> Vec<Spec> {
-        let gather = PhotonMapParams::specs().into_iter().filter(|s| {
-            let top = s.name.split('.').next().unwrap_or_default();
-            !Self::NOT_GATHER.contains(&top)
-        });
+        let gather = PhotonMapParams::specs()
+            .into_iter()
+            .filter(|s| Self::takes_gather_key(&s.name));
         MpsParams::specs()
             .into_iter()
             .chain(MetropolisParams::specs())
@@ -157,10 +160,11 @@ impl Params for MpsConfig {
     }
 
     fn columns(&self) -> Vec<(String, String)> {
-        let gather = self.gather.columns().into_iter().filter(|(k, _)| {
-            let top = k.split('.').next().unwrap_or_default();
-            !Self::NOT_GATHER.contains(&top)
-        });
+        let gather = self
+            .gather
+            .columns()
+            .into_iter()
+            .filter(|(k, _)| Self::takes_gather_key(k));
         self.params
             .columns()
             .into_iter()
