@@ -30,7 +30,7 @@ pub fn srgb8(linear: f32) -> u8 {
 /// Viridis (van der Walt & Smith, matplotlib's default colormap; perceptually uniform and
 /// readable in greyscale and by colour-blind viewers) sampled at 9 evenly spaced stops, in
 /// 8-bit sRGB.
-const VIRIDIS_STOPS: [[u8; 3]; 9] = [
+pub const VIRIDIS_STOPS: [[u8; 3]; 9] = [
     [0x44, 0x01, 0x54],
     [0x47, 0x2d, 0x7b],
     [0x3b, 0x52, 0x8b],

@@ -120,6 +120,10 @@ enum Command {
     Plot {
         /// A run directory, e.g. results/cornell/<run-id>.
         run: PathBuf,
+        /// A metric to plot (repeatable): mse, rmse, rel_mse, mse_trimmed, rel_mse_trimmed,
+        /// rms_rel_lum, flip, mse_ldr. Default: mse, rel_mse and flip.
+        #[arg(long = "metric", value_name = "METRIC")]
+        metrics: Vec<String>,
     },
     /// Compare a candidate run with a baseline run: exit status 1 on a significant error
     /// regression, 0 otherwise, 2 on bad input.
@@ -430,8 +434,8 @@ fn run_command(command: Command) -> Result<Status> {
             }
             Ok(Status::Success)
         }
-        Command::Plot { run } => {
-            photon_bench::report::redraw(&run)?;
+        Command::Plot { run, metrics } => {
+            photon_bench::report::redraw(&run, &metrics)?;
             println!("{}", run.join("plots").display());
             Ok(Status::Success)
         }

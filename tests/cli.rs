@@ -158,6 +158,20 @@ fn reference_then_run_writes_a_complete_result_directory() {
     redrawn.sort();
     assert_eq!(plots, redrawn);
     assert_refused(&bench(root, &["plot", "nowhere"]), &["nowhere", "metrics.csv"]);
+    // The default plots cover MSE, relMSE and FLIP; `--metric` draws others.
+    for metric in ["mse", "rel_mse", "flip"] {
+        assert!(
+            plots.contains(&format!("tiny_{metric}_vs_spp.svg")),
+            "{metric}: {plots:?}"
+        );
+    }
+    let o = bench(root, &["plot", "bare", "--metric", "rms_rel_lum"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(bare.join("plots/tiny_rms_rel_lum_vs_spp.png").exists());
+    assert_refused(
+        &bench(root, &["plot", "bare", "--metric", "psnr"]),
+        &["--metric", "psnr", "rel_mse"],
+    );
 
     // A second run never overwrites the first; it takes every cell from the cache.
     let o = bench(root, &["run", "experiments/tiny.toml"]);

@@ -2,10 +2,11 @@
 //! redrawn from `metrics.csv`).
 
 use super::bars::{Bar, Stack, bar_chart, stacked_bar_chart};
-use super::plot::{Series, log_log_plot};
-use super::rows::{BUDGET_SECONDS, BUDGET_SPP, Group, METRICS, Row, distinct, group};
+use super::chart::{Line, Styles};
+use super::plot::{LogLogPlot, Series, log_log_plot};
+use super::rows::{BUDGET_SECONDS, BUDGET_SPP, Group, METRICS, Metric, Row, distinct, group};
 use super::stats::{CONFIDENCE, Summary};
-use crate::error::{Context, Result};
+use crate::error::{Context, Error, Result};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -13,75 +14,150 @@ use std::path::Path;
 /// Lower ends of confidence bands are clipped to this fraction of the mean on log axes.
 pub const BAND_FLOOR: f64 = 0.01;
 
-/// Per strategy, `(x, mean MSE)` points and `(x, CI low, CI high)` band rows.
-type Curves<'a> = BTreeMap<&'a str, (Vec<(f64, f64)>, Vec<(f64, f64, f64)>)>;
+/// The metrics a run plots unless `bench plot --metric` names others: the MSE, the relative
+/// MSE (insensitive to the image's brightness) and FLIP (what a viewer sees).
+pub const PLOTTED_METRICS: [&str; 3] = ["mse", "rel_mse", "flip"];
 
-fn add_point<'a>(curves: &mut Curves<'a>, label: &'a str, x: f64, g: &Group) {
-    let mse = Summary::of(&g.values(|r| r.mse));
-    let entry = curves.entry(label).or_default();
-    entry.0.push((x, mse.mean));
-    if let Some((lo, hi)) = mse.ci {
-        // A log axis cannot show a lower bound at or below zero (frequent with two or three
-        // seeds): clip it to a hundredth of the mean.
-        entry.1.push((x, lo.max(mse.mean * BAND_FLOOR), hi));
+/// The metric called `name` ([`METRICS`]), or an error listing the known names.
+pub fn metric_named(name: &str) -> Result<&'static Metric> {
+    METRICS.iter().find(|m| m.name == name).ok_or_else(|| {
+        let known: Vec<&str> = METRICS.iter().map(|m| m.name).collect();
+        Error::new(format!(
+            "--metric: unknown metric `{name}`; expected one of {}",
+            known.join(", ")
+        ))
+    })
+}
+
+/// How a metric is written on an axis and in a title.
+fn axis_name(metric: &str) -> &str {
+    match metric {
+        "mse" => "MSE",
+        "rmse" => "RMSE",
+        "rel_mse" => "relMSE",
+        "mse_trimmed" => "MSE (trimmed)",
+        "rel_mse_trimmed" => "relMSE (trimmed)",
+        "rms_rel_lum" => "RMS relative luminance error",
+        "flip" => "FLIP",
+        "mse_ldr" => "MSE (tone-mapped, 8 bit)",
+        other => other,
     }
 }
 
-fn series(curves: Curves, suffix: &str) -> Vec<Series> {
+/// Per strategy (in the run's order), `(x, mean)` points and `(x, CI low, CI high)` band rows.
+type Curves<'a> = BTreeMap<usize, (&'a str, Vec<(f64, f64)>, Vec<(f64, f64, f64)>)>;
+
+fn add_point<'a>(curves: &mut Curves<'a>, order: usize, label: &'a str, x: f64, values: &[f64]) {
+    let m = Summary::of(values);
+    let entry = curves.entry(order).or_insert_with(|| (label, Vec::new(), Vec::new()));
+    entry.1.push((x, m.mean));
+    if let Some((lo, hi)) = m.ci {
+        // Log-scale intervals stay above zero; the floor only guards a degenerate spread.
+        entry.2.push((x, lo.max(m.mean * BAND_FLOOR), hi));
+    }
+}
+
+fn series(curves: Curves, styles: &Styles, line: Line) -> Vec<Series> {
     curves
-        .into_iter()
-        .map(|(label, (points, band))| Series {
-            label: format!("{label}{suffix}"),
+        .into_values()
+        .map(|(label, points, band)| Series {
+            label: label.to_string(),
+            style: styles.of(label, line),
             points,
             band: (!band.is_empty()).then_some(band),
         })
         .collect()
 }
 
-/// Every plot of a run, from its rows alone. For each scene, MSE vs spp and MSE vs seconds (log-log, mean over seeds with its
-/// [`CONFIDENCE`] interval as a band, its lower end clipped to [`BAND_FLOOR`] × the mean, one
-/// line per strategy) as
-/// `plots/<scene>_mse_vs_spp.{svg,png}` and `plots/<scene>_mse_vs_time.{svg,png}`. Equal-time
-/// checkpoints join the time plot as their own lines, marked "(time budget)"; a plot without
-/// any point is left out. Then the bar charts of [`write_bar_charts`].
+/// The distinct budget values of `scene`'s checkpoints of `budget`.
+fn checkpoints(groups: &[Group], scene: &str, budget: &str) -> Vec<f64> {
+    let mut v: Vec<f64> = groups
+        .iter()
+        .filter(|g| g.scene == scene && g.budget == budget)
+        .map(|g| g.budget_value)
+        .collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+/// Every plot of a run, from its rows alone, for the [`PLOTTED_METRICS`]. See
+/// [`write_plots_of`].
 pub fn write_plots(rows: &[Row], dir: &Path) -> Result<()> {
+    let metrics: Vec<&Metric> = PLOTTED_METRICS.iter().map(|m| metric_named(m)).collect::<Result<_>>()?;
+    write_plots_of(rows, dir, &metrics)
+}
+
+/// Every plot of a run for `metrics`, from its rows alone. Per scene and metric: the metric
+/// against spp and against seconds (log–log; mean over seeds with its [`CONFIDENCE`] interval
+/// as a band; one line per strategy; x ticks at the checkpoints) as
+/// `plots/<scene>_<metric>_vs_spp.{svg,png}` and `plots/<scene>_<metric>_vs_time.{svg,png}`,
+/// and the bar charts at the largest checkpoints (`<scene>_<metric>_equal_time`,
+/// `<scene>_<metric>_equal_spp`); then the time per phase (`<scene>_timing`). Equal-time
+/// checkpoints join the time plot dashed, in their strategy's colour and marker; its legend
+/// names each strategy once and then the two line styles. A metric a scene's rows did not record (NaN), or a plot without any point,
+/// is left out. One strategy has one style in every plot of the run ([`Styles`]).
+pub fn write_plots_of(rows: &[Row], dir: &Path, metrics: &[&Metric]) -> Result<()> {
     let plots = dir.join("plots");
     std::fs::create_dir_all(&plots).context(plots.display())?;
     let groups = group(rows);
+    let strategies = distinct(rows, |r| &r.strategy);
+    let styles = Styles::new(strategies.iter().copied());
+    let order = |label: &str| strategies.iter().position(|s| *s == label).unwrap_or(usize::MAX);
     for scene in distinct(rows, |r| &r.scene) {
-        let (mut vs_spp, mut vs_time, mut equal_time) = (Curves::new(), Curves::new(), Curves::new());
-        for g in groups.iter().filter(|g| g.scene == scene) {
-            let time = super::stats::mean(&g.values(|r| r.total_s));
-            if g.budget == BUDGET_SPP {
-                add_point(&mut vs_spp, g.strategy, g.budget_value, g);
-                add_point(&mut vs_time, g.strategy, time, g);
-            } else {
-                add_point(&mut equal_time, g.strategy, time, g);
+        let spp_ticks = checkpoints(&groups, scene, BUDGET_SPP);
+        let time_ticks = checkpoints(&groups, scene, BUDGET_SECONDS);
+        for metric in metrics {
+            let recorded = |g: &&Group| g.scene == scene && g.values(metric.get).iter().any(|v| !v.is_nan());
+            if !groups.iter().any(|g| recorded(&g)) {
+                continue;
             }
+            let (mut vs_spp, mut vs_time, mut equal_time) = (Curves::new(), Curves::new(), Curves::new());
+            for g in groups.iter().filter(recorded) {
+                let values = g.values(metric.get);
+                let time = super::stats::mean(&g.values(|r| r.total_s));
+                let k = order(g.strategy);
+                if g.budget == BUDGET_SPP {
+                    add_point(&mut vs_spp, k, g.strategy, g.budget_value, &values);
+                    add_point(&mut vs_time, k, g.strategy, time, &values);
+                } else {
+                    add_point(&mut equal_time, k, g.strategy, time, &values);
+                }
+            }
+            let name = axis_name(metric.name);
+            let title = |what: &str| format!("{scene}: {name} vs {what} (mean, {:.0} % CI)", CONFIDENCE * 100.0);
+            let by_spp = series(vs_spp, &styles, Line::Solid);
+            if !by_spp.is_empty() {
+                log_log_plot(
+                    &LogLogPlot {
+                        title: &title("samples per pixel"),
+                        x_label: "samples per pixel",
+                        y_label: name,
+                        series: &by_spp,
+                        x_ticks: spp_ticks.clone(),
+                        line_meaning: None,
+                    },
+                    &plots.join(format!("{scene}_{}_vs_spp", metric.name)),
+                )?;
+            }
+            let mut by_time = series(vs_time, &styles, Line::Solid);
+            by_time.extend(series(equal_time, &styles, Line::Dashed));
+            if !by_time.is_empty() {
+                log_log_plot(
+                    &LogLogPlot {
+                        title: &title("time"),
+                        x_label: "seconds (preparation + rendering)",
+                        y_label: name,
+                        series: &by_time,
+                        x_ticks: time_ticks.clone(),
+                        line_meaning: Some(["equal samples", "equal time"]),
+                    },
+                    &plots.join(format!("{scene}_{}_vs_time", metric.name)),
+                )?;
+            }
+            write_metric_bars(scene, &groups, metric, &styles, &plots)?;
         }
-        let title = |what: &str| format!("{scene}: MSE vs {what} (mean, {:.0} % CI)", CONFIDENCE * 100.0);
-        let by_spp = series(vs_spp, "");
-        if !by_spp.is_empty() {
-            log_log_plot(
-                &title("samples per pixel"),
-                "samples per pixel",
-                "MSE",
-                &by_spp,
-                &plots.join(format!("{scene}_mse_vs_spp")),
-            )?;
-        }
-        let mut by_time = series(vs_time, "");
-        by_time.extend(series(equal_time, " (time budget)"));
-        if !by_time.is_empty() {
-            log_log_plot(
-                &title("time"),
-                "seconds (preparation + rendering)",
-                "MSE",
-                &by_time,
-                &plots.join(format!("{scene}_mse_vs_time")),
-            )?;
-        }
-        write_bar_charts(scene, &groups, &plots)?;
+        write_timing(scene, &groups, &plots)?;
     }
     Ok(())
 }
@@ -95,23 +171,24 @@ fn at_largest<'g, 'a>(scene: &str, groups: &'g [Group<'a>], budget: &str) -> Vec
     of_budget().filter(|g| g.budget_value == largest).collect()
 }
 
-/// Bar charts of `scene`: mean MSE per strategy with [`CONFIDENCE`] error bars at the largest
-/// time budget (`<scene>_mse_equal_time`) and at the largest spp checkpoint
-/// (`<scene>_mse_equal_spp`), and the time per phase, stacked, at the largest spp checkpoint
-/// (else the largest time budget) (`<scene>_timing`).
-fn write_bar_charts(scene: &str, groups: &[Group], plots: &Path) -> Result<()> {
+/// Bar charts of `metric` on `scene`: mean per strategy with [`CONFIDENCE`] error bars at the
+/// largest time budget (`<scene>_<metric>_equal_time`) and at the largest spp checkpoint
+/// (`<scene>_<metric>_equal_spp`), in the strategies' colours.
+fn write_metric_bars(scene: &str, groups: &[Group], metric: &Metric, styles: &Styles, plots: &Path) -> Result<()> {
+    let name = axis_name(metric.name);
     for (budget, file, what) in [
-        (BUDGET_SECONDS, "mse_equal_time", "equal time"),
-        (BUDGET_SPP, "mse_equal_spp", "equal samples"),
+        (BUDGET_SECONDS, "equal_time", "equal time"),
+        (BUDGET_SPP, "equal_spp", "equal samples"),
     ] {
         let at = at_largest(scene, groups, budget);
         let Some(first) = at.first() else { continue };
         let bars: Vec<Bar> = at
             .iter()
             .map(|g| {
-                let s = Summary::of(&g.values(|r| r.mse));
+                let s = Summary::of(&g.values(metric.get));
                 Bar {
                     label: g.strategy.to_string(),
+                    colour: styles.of(g.strategy, Line::Solid).colour,
                     value: s.mean,
                     error: s.ci,
                 }
@@ -119,16 +196,21 @@ fn write_bar_charts(scene: &str, groups: &[Group], plots: &Path) -> Result<()> {
             .collect();
         bar_chart(
             &format!(
-                "{scene}: MSE at {what}, {} (mean, {:.0} % CI)",
+                "{scene}: {name} at {what}, {} (mean, {:.0} % CI)",
                 first.budget_label(),
                 CONFIDENCE * 100.0
             ),
-            "MSE",
+            name,
             &bars,
-            &plots.join(format!("{scene}_{file}")),
+            &plots.join(format!("{scene}_{}_{file}", metric.name)),
         )?;
     }
+    Ok(())
+}
 
+/// The time per phase of `scene`'s strategies, stacked, at the largest spp checkpoint (else
+/// the largest time budget) (`<scene>_timing`).
+fn write_timing(scene: &str, groups: &[Group], plots: &Path) -> Result<()> {
     let mut at = at_largest(scene, groups, BUDGET_SPP);
     if at.is_empty() {
         at = at_largest(scene, groups, BUDGET_SECONDS);

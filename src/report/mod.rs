@@ -7,6 +7,7 @@
 //! figure ([`crate::figure`]).
 
 pub mod bars;
+pub mod chart;
 pub mod compare;
 pub mod convergence;
 pub mod counters;
@@ -20,8 +21,21 @@ pub mod stats;
 
 pub use convergence::{write_plots, write_summary};
 
-/// `bench plot`: redraws every plot of a run directory from its `metrics.csv` alone.
-pub fn redraw(run_dir: &std::path::Path) -> crate::error::Result<()> {
+/// `bench plot`: redraws the plots of a run directory from its `metrics.csv` alone, for the
+/// metrics named (unknown names are refused before anything is drawn), or for
+/// [`convergence::PLOTTED_METRICS`] when none is.
+pub fn redraw(run_dir: &std::path::Path, metrics: &[String]) -> crate::error::Result<()> {
+    let metrics: Vec<&rows::Metric> = if metrics.is_empty() {
+        convergence::PLOTTED_METRICS
+            .iter()
+            .map(|m| convergence::metric_named(m))
+            .collect::<crate::error::Result<_>>()?
+    } else {
+        metrics
+            .iter()
+            .map(|m| convergence::metric_named(m))
+            .collect::<crate::error::Result<_>>()?
+    };
     let csv = run_dir.join("metrics.csv");
     if !csv.is_file() {
         return Err(crate::error::Error::new(format!(
@@ -33,5 +47,5 @@ pub fn redraw(run_dir: &std::path::Path) -> crate::error::Result<()> {
     if rows.is_empty() {
         return Err(crate::error::Error::new(format!("{}: no rows", csv.display())));
     }
-    write_plots(&rows, run_dir)
+    convergence::write_plots_of(&rows, run_dir, &metrics)
 }
