@@ -181,13 +181,16 @@ fn reference_then_run_writes_a_complete_result_directory() {
     assert_eq!(cached_cells(root).len(), 4);
 }
 
-/// `index.html` loads nothing from outside the run directory and every link resolves.
+/// `index.html` loads nothing from outside the run directory, every link resolves, and the
+/// viewer's data and script are inline (scripts/test_report_page.py drives it in a browser).
 fn assert_offline_page(run: &Path) {
     let html = std::fs::read_to_string(run.join("index.html")).unwrap();
-    assert!(
-        !html.contains("http:") && !html.contains("https:") && !html.contains("//"),
-        "{html}"
-    );
+    assert!(!html.contains("http:") && !html.contains("https:"), "a URL in the page");
+    for remote in ["src=\"//", "href=\"//", "url(", "<script src", "import("] {
+        assert!(!html.contains(remote), "{remote} in the page");
+    }
+    assert!(html.contains("id=\"viewer-data\"") && html.contains("window.viewer"));
+    assert!(run.join("references/tiny.exr").exists() && run.join("references/tiny.json").exists());
     let mut links = 0;
     for attr in ["src=\"", "href=\""] {
         for part in html.split(attr).skip(1) {

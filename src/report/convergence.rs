@@ -274,11 +274,13 @@ fn num(v: f64) -> String {
 /// `summary.md`: per scene and metric, every strategy at every checkpoint as mean, standard
 /// deviation and [`CONFIDENCE`] Student-t interval over seeds, and links to the plots.
 /// `gathers` adds Christensen's comparison of final-gathering variants
-/// ([`super::final_gather`]) to the scenes that have one.
+/// ([`super::final_gather`]) to the scenes that have one; `baseline` is the strategy the ratio
+/// tables compare with ([`super::ratios`]).
 pub fn write_summary(
     name: &str,
     description: &str,
     rows: &[Row],
+    baseline: Option<&str>,
     gathers: &[super::final_gather::Comparison],
     dir: &Path,
 ) -> Result<()> {
@@ -307,7 +309,7 @@ pub fn write_summary(
         CONFIDENCE * 100.0
     );
     let groups = group(rows);
-    let ratios = super::ratios::ratios(rows);
+    let ratios = super::ratios::ratios(rows, baseline);
     for scene in distinct(rows, |r| &r.scene) {
         let _ = writeln!(md, "## {scene}\n");
         let _ = write!(md, "{}", super::ratios::markdown(&ratios, scene));

@@ -1,6 +1,9 @@
-//! `index.html`: one page that shows a run — plots, bar charts, image strips, images and error
-//! maps, and a table of the largest checkpoints — from the result rows alone. Every link is
-//! relative and nothing external is loaded, so the page opens offline, straight from disk.
+//! `index.html`: one page that shows a run. On top, the interactive comparison viewer
+//! ([`super::page`]); then per scene the convergence plots and bar charts (inline SVG), the
+//! table of the largest checkpoints, and, folded, the counters, Christensen's final-gathering
+//! tables, photon figures, strips and every image. Built from the result rows and the files of
+//! the run directory alone; the script and data are inline, every link is relative and nothing
+//! external is loaded, so the page opens offline, straight from disk.
 
 use super::rows::{BUDGET_SECONDS, BUDGET_SPP, Group, Row, distinct, group};
 use super::stats::{CONFIDENCE, Summary};
@@ -33,23 +36,47 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-const STYLE: &str = "body{font-family:sans-serif;margin:2em;max-width:1400px}\
-img{max-width:100%}figure{display:inline-block;margin:0.5em;vertical-align:top}\
-figcaption{font-size:90%;max-width:480px;word-wrap:break-word}\
+const STYLE: &str = "body{font-family:sans-serif;margin:1em auto;max-width:1420px;padding:0 1em;color:#111}\
+h1{margin:0.2em 0}h2{border-bottom:1px solid #ccc;margin-top:1.6em}\
+img{max-width:100%}figure{display:inline-block;margin:0.4em;vertical-align:top}\
+figcaption{font-size:85%;max-width:480px;word-wrap:break-word}\
 .px img{image-rendering:pixelated;width:240px}.strip img{image-rendering:pixelated;min-width:720px}\
-.plot img{width:640px}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:0.2em 0.6em}\
-td{text-align:right}td:first-child{text-align:left}";
+.plots{display:grid;grid-template-columns:repeat(auto-fill,minmax(460px,1fr));gap:0.6em}.plots svg{width:100%;height:auto}\
+table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #ccc;padding:0.2em 0.6em}\
+td{text-align:right}td:first-child{text-align:left}details{margin:0.6em 0}summary{cursor:pointer;font-weight:bold}\
+#viewer{background:#f6f6f6;border:1px solid #ddd;padding:0.6em;border-radius:4px}\
+#viewer .controls{display:flex;flex-wrap:wrap;gap:0.8em;align-items:center;margin-bottom:0.4em}\
+#viewer button{font:inherit;font-size:85%;border:1px solid #bbb;background:#fff;padding:0.15em 0.5em;cursor:pointer;border-radius:3px}\
+#viewer button.on{background:#0072b2;color:#fff;border-color:#0072b2}#viewer button.on kbd{color:#111}\
+#viewer .stage{display:flex;gap:0.6em;align-items:flex-start}\
+#images{display:flex;flex-direction:column;gap:0.2em;min-width:170px;max-height:360px;overflow-y:auto}\
+#images button{text-align:left}#viewer figure{margin:0}#viewer canvas{background:#222;display:block;cursor:crosshair}\
+#metrics{min-width:230px}#metrics caption{font-weight:bold;text-align:left}#metrics th{text-align:left;font-weight:normal;color:#444}\
+#metrics td{text-align:left;max-width:240px;word-break:break-all}.ci{color:#666}\
+.scale{display:block;position:relative;width:256px;height:2.2em}.scale canvas{width:256px;height:10px;background:none}\
+#colour-bar-labels span{position:absolute;top:12px;transform:translateX(-50%);font-size:80%}\
+#pixel{font-family:monospace;font-size:85%;min-height:1.2em;margin:0.3em 0}.keys{font-size:85%;color:#444;margin:0}\
+kbd{border:1px solid #bbb;border-radius:3px;padding:0 0.25em;font-size:85%;background:#fff}";
+
+/// The SVG of a chart, ready to sit inline in HTML (no XML prolog, no namespace URL, which
+/// inline SVG does not need), or `None` when the run did not draw it.
+fn inline_svg(dir: &Path, rel: &str) -> Option<String> {
+    let text = std::fs::read_to_string(dir.join(rel)).ok()?;
+    let start = text.find("<svg")?;
+    Some(text[start..].replacen(" xmlns=\"http://www.w3.org/2000/svg\"", "", 1))
+}
 
 /// Writes `index.html` into the run directory `dir`. Files that a run did not write (a plot
 /// without data, a strip without images) are left out of the page.
 /// `gathers`: Christensen's comparison of final-gathering variants, shown per scene.
-pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], dir: &Path) -> Result<()> {
+/// `exposure`: the viewer's initial exposure in stops (the experiment's `exposure`).
+pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], dir: &Path, exposure: f64) -> Result<()> {
     let mut h = String::new();
     let first = rows.first();
     let name = first.map_or("run", |r| r.experiment.as_str());
     let _ = write!(
         h,
-        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title><style>{STYLE}</style></head><body>\n<h1>{}</h1>\n",
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{}</title><style>{STYLE}</style></head><body>\n<h1>{}</h1>\n",
         esc(name),
         esc(name)
     );
@@ -68,6 +95,7 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
         "<p><a href=\"metrics.csv\">metrics.csv</a> · <a href=\"summary.md\">summary.md</a> · \
          <a href=\"experiment.toml\">experiment.toml</a></p>"
     );
+    h.push_str(&super::page::viewer(rows, dir, exposure)?);
     let exists = |rel: &str| dir.join(rel).exists();
     let figure = |h: &mut String, class: &str, src: &str, caption: &str| {
         if exists(src) {
@@ -82,16 +110,18 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
     let groups = group(rows);
     for scene in distinct(rows, |r| &r.scene) {
         let _ = writeln!(h, "<h2>{}</h2>", esc(scene));
-        let _ = writeln!(h, "<h3>Convergence and bars</h3>");
-        for (file, caption) in [
-            ("mse_vs_spp", "MSE vs samples per pixel"),
-            ("mse_vs_time", "MSE vs time"),
-            ("mse_equal_time", "MSE at equal time"),
-            ("mse_equal_spp", "MSE at equal samples"),
-            ("timing", "time per phase"),
-        ] {
-            figure(&mut h, "plot", &format!("plots/{scene}_{file}.svg"), caption);
+        let _ = writeln!(h, "<h3>Convergence and bars</h3>\n<div class=\"plots\">");
+        let mut charts: Vec<String> = super::convergence::PLOTTED_METRICS
+            .iter()
+            .flat_map(|m| ["vs_spp", "vs_time"].map(|what| format!("{m}_{what}")))
+            .collect();
+        charts.extend(["mse_equal_time", "mse_equal_spp", "timing"].map(String::from));
+        for chart in charts {
+            if let Some(svg) = inline_svg(dir, &format!("plots/{scene}_{chart}.svg")) {
+                let _ = writeln!(h, "<div>{svg}</div>");
+            }
         }
+        let _ = writeln!(h, "</div><p>Every chart as SVG and print PNG: <code>plots/</code>.</p>");
 
         // The largest checkpoint of each budget kind.
         let largest: Vec<Vec<&Group>> = [BUDGET_SPP, BUDGET_SECONDS]
@@ -181,7 +211,10 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
         for (rel, caption) in &figures {
             figure(&mut h, "px", rel, caption);
         }
-        let _ = writeln!(h, "<h3>Images</h3>");
+        let _ = writeln!(
+            h,
+            "<details><summary>Image strips and every image of the largest checkpoints</summary>"
+        );
         for at in &largest {
             let Some(g) = at.first() else { continue };
             let labels: Vec<&str> = at.iter().map(|g| g.strategy).collect();
@@ -227,6 +260,7 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
                 &format!("{what} · relative error (log viridis, 0.1 % … 1000 %)"),
             );
         }
+        let _ = writeln!(h, "</details>");
     }
     let _ = writeln!(h, "</body></html>");
     crate::util::write_atomic(&dir.join("index.html"), h.as_bytes())

@@ -13,6 +13,7 @@ pub mod convergence;
 pub mod counters;
 pub mod final_gather;
 pub mod html;
+pub mod page;
 pub mod photons;
 pub mod plot;
 pub mod ratios;

@@ -1,7 +1,7 @@
-//! Ratios to the first strategy: the form in which papers state their headline ("at 500 spp,
+//! Ratios to a baseline strategy (the experiment's `baseline`, else its first): the form in which papers state their headline ("at 500 spp,
 //! standard importance sampling has more than 3× the MSE"; "the photon map adds 20 % render
-//! time" — Jensen 1995, §5). For every scene, every strategy is set against the experiment's
-//! first strategy on that scene at the largest checkpoint of each budget kind that both reach:
+//! time" — Jensen 1995, §5). For every scene, every strategy is set against the baseline
+//! (called "first" below) on that scene at the largest checkpoint of each budget kind that both reach:
 //! the error ratios first / this (MSE, MSE of the display images, FLIP; > 1: this strategy is
 //! better) and the time ratio this / first
 //! (preparation included; at equal spp, 1 + the time overhead per sample).
@@ -69,13 +69,15 @@ pub struct Ratio {
     pub time: RatioCi,
 }
 
-/// The ratios of every scene's strategies to its first strategy (module doc).
-pub fn ratios(rows: &[Row]) -> Vec<Ratio> {
+/// The ratios of every scene's strategies to `baseline` where the scene has it, else to its
+/// first strategy (module doc).
+pub fn ratios(rows: &[Row], baseline: Option<&str>) -> Vec<Ratio> {
     let groups = group(rows);
     let mut out = Vec::new();
     for scene in distinct(rows, |r| &r.scene) {
         let in_scene: Vec<&Group> = groups.iter().filter(|g| g.scene == scene).collect();
-        let Some(first) = in_scene.first().map(|g| g.strategy) else {
+        let chosen = baseline.and_then(|b| in_scene.iter().find(|g| g.strategy == b));
+        let Some(first) = chosen.or(in_scene.first()).map(|g| g.strategy) else {
             continue;
         };
         for budget in [BUDGET_SPP, BUDGET_SECONDS] {
@@ -272,7 +274,7 @@ mod tests {
                 rows.push(row("guided", seed, spp, 0.25 / spp, 1.2 * spp + seed as f64 * 0.1));
             }
         }
-        let r = ratios(&rows);
+        let r = ratios(&rows, None);
         assert_eq!(r.len(), 1);
         assert_eq!(
             (r[0].baseline.as_str(), r[0].strategy.as_str(), r[0].budget_value),
@@ -286,5 +288,11 @@ mod tests {
             md.contains("| guided | 10 spp | 2/2 | 4.000 [4.000, 4.000] | – |"),
             "{md}"
         );
+
+        // A chosen baseline turns the ratios around; one the scene lacks falls back to the first.
+        let r = ratios(&rows, Some("guided"));
+        assert_eq!((r[0].baseline.as_str(), r[0].strategy.as_str()), ("guided", "standard"));
+        assert!((r[0].mse.ratio - 0.25).abs() < 1e-12);
+        assert_eq!(ratios(&rows, Some("absent"))[0].baseline, "standard");
     }
 }

@@ -64,6 +64,9 @@ use std::path::{Path, PathBuf};
 pub const MAX_SPP: u32 = 1 << 20;
 /// Largest accepted time budget, seconds.
 pub const MAX_SECONDS: f64 = 86_400.0;
+/// Largest accepted exposure, stops either way (2²⁰ ≈ 10⁶ already turns any render white or
+/// black).
+pub const MAX_EXPOSURE: f32 = 20.0;
 /// Largest accepted number of seeds.
 pub const MAX_SEEDS: u32 = 1000;
 
@@ -83,6 +86,9 @@ struct ExperimentFile {
     base_seed: u64,
     references: Option<String>,
     output: Option<String>,
+    #[serde(default)]
+    exposure: f32,
+    baseline: Option<String>,
     #[serde(rename = "strategy")]
     strategies: Vec<toml::Table>,
 }
@@ -108,6 +114,13 @@ pub struct Experiment {
     pub seeds: Vec<u64>,
     pub references: PathBuf,
     pub output: PathBuf,
+    /// Exposure of the previews, strips and the viewer's first view, in stops (`2^exposure`
+    /// times the linear image before clamping and sRGB); 0 shows the image as is. Metrics
+    /// never depend on it.
+    pub exposure: f32,
+    /// The strategy label the ratio tables compare every other strategy with; the first
+    /// strategy when absent.
+    pub baseline: Option<String>,
     pub strategies: Vec<StrategySpec>,
 }
 
@@ -200,6 +213,21 @@ impl Experiment {
                 strategies.push(spec);
             }
         }
+        if !(raw.exposure.is_finite() && raw.exposure.abs() <= MAX_EXPOSURE) {
+            return Err(at(format!(
+                "exposure: expected stops in [-{MAX_EXPOSURE}, {MAX_EXPOSURE}], got {}",
+                raw.exposure
+            )));
+        }
+        if let Some(b) = &raw.baseline
+            && !strategies.iter().any(|s| &s.label == b)
+        {
+            let labels: Vec<&str> = strategies.iter().map(|s| s.label.as_str()).collect();
+            return Err(at(format!(
+                "baseline: expected the label of one of the strategies ({}), got `{b}`",
+                labels.join(", ")
+            )));
+        }
         Ok(Experiment {
             file: file.to_path_buf(),
             text,
@@ -211,6 +239,8 @@ impl Experiment {
             seeds,
             references: join_clean(dir, raw.references.as_deref().unwrap_or("../references")),
             output: join_clean(dir, raw.output.as_deref().unwrap_or("../results")),
+            exposure: raw.exposure,
+            baseline: raw.baseline,
             strategies,
         })
     }

@@ -21,6 +21,16 @@ fn valid_file_is_normalised() {
 }
 
 #[test]
+fn exposure_and_baseline_are_read_and_default_to_none() {
+    let e = parse(VALID).unwrap();
+    assert_eq!((e.exposure, e.baseline.as_deref()), (0.0, None));
+    let text = format!("{VALID}[[strategy]]\nkind = \"path\"\nlabel = \"b\"\n")
+        .replace("seeds = 2", "seeds = 2\nexposure = -1.5\nbaseline = \"b\"");
+    let e = parse(&text).unwrap();
+    assert_eq!((e.exposure, e.baseline.as_deref()), (-1.5, Some("b")));
+}
+
+#[test]
 fn a_strategy_may_run_on_some_scenes_only() {
     let text = "scenes = [\"../scenes/a.toml\", \"../scenes/b.toml\"]\nspp = [1]\n\
         [[strategy]]\nkind = \"path\"\n\
@@ -177,6 +187,14 @@ fn bad_files_name_the_field() {
             "seconds: expected time budgets",
         ),
         (VALID.replace("seeds = 2", "seeds = 0"), "seeds: expected a count"),
+        (
+            VALID.replace("seeds = 2", "seeds = 2\nexposure = 40"),
+            "exposure: expected stops in [-20, 20], got 40",
+        ),
+        (
+            VALID.replace("seeds = 2", "seeds = 2\nbaseline = \"pth\""),
+            "baseline: expected the label of one of the strategies (path), got `pth`",
+        ),
         (VALID.replace("seeds = 2", "seedz = 2"), "unknown field `seedz`"),
         (VALID.replace("max_depth = 3", "max_depth = -3"), "strategy[0] (path)"),
         (VALID.replace("spp = [4, 1, 4]", "spp = [4 1]"), "line 2, column"),

@@ -8,6 +8,20 @@ use crate::film::{image_strip, read_exr, write_png};
 use crate::report::rows::{BUDGET_SECONDS, BUDGET_SPP, Row};
 use std::path::Path;
 
+/// With a non-zero `exposure`, every checkpoint's preview PNG again from its EXR at that
+/// exposure (the cached cells keep theirs at 0: the exposure is not part of a cell). Each
+/// preview is replaced atomically, so the cell's hard-linked file is never written through.
+pub(super) fn write_previews(exp: &Experiment, rows: &[Row], dir: &Path) -> Result<()> {
+    if exp.exposure == 0.0 {
+        return Ok(());
+    }
+    for r in rows {
+        let exr = dir.join(&r.image);
+        write_png(&read_exr(&exr)?, &exr.with_extension("png"), exp.exposure)?;
+    }
+    Ok(())
+}
+
 /// Per scene, at the largest spp checkpoint and at the largest time budget: the first seed's
 /// image of every strategy side by side, then the reference ([`crate::report::html::strip_path`]).
 pub(super) fn write_strips(exp: &Experiment, prepared: &[Prepared], rows: &[Row], dir: &Path) -> Result<()> {
@@ -36,7 +50,7 @@ pub(super) fn write_strips(exp: &Experiment, prepared: &[Prepared], rows: &[Row]
             all.push(&p.reference.image);
             let strip = image_strip(&all, 2);
             let path = dir.join(crate::report::html::strip_path(&p.scene.name, budget, value));
-            write_png(&strip, &path, 0.0)?;
+            write_png(&strip, &path, exp.exposure)?;
         }
         write_progression(exp, p, rows, seed, dir)?;
     }
@@ -83,6 +97,6 @@ pub(super) fn write_progression(exp: &Experiment, p: &Prepared, rows: &[Row], se
     write_png(
         &grid,
         &dir.join(crate::report::html::progression_path(&p.scene.name)),
-        0.0,
+        exp.exposure,
     )
 }

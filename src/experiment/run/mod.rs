@@ -214,6 +214,27 @@ pub fn run(exp: &Experiment, force: bool) -> Result<Outcome> {
     })
 }
 
+/// Puts the reference of every scene (EXR, sidecar and preview) into `<dir>/references/`, so
+/// that a run directory holds everything its errors were measured against (hard links where
+/// the file system allows, copies elsewhere).
+fn copy_references(exp: &Experiment, prepared: &[Prepared], dir: &Path) -> Result<()> {
+    let to = dir.join("references");
+    std::fs::create_dir_all(&to).context(to.display())?;
+    for p in prepared {
+        let exr = reference::exr_path(&exp.references, &p.scene.name);
+        for from in [exr.clone(), exr.with_extension("json"), exr.with_extension("png")] {
+            let (Some(name), true) = (from.file_name(), from.is_file()) else {
+                continue;
+            };
+            let target = to.join(name);
+            if std::fs::hard_link(&from, &target).is_err() {
+                std::fs::copy(&from, &target).context(from.display())?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Renders (or takes from the cache) every cell into `dir`; returns (cached, rendered) counts.
 fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, force: bool) -> Result<(usize, usize)> {
     std::fs::write(dir.join("experiment.toml"), &exp.text).context(dir.display())?;
@@ -258,14 +279,17 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
         }
     }
     bar.finish_and_clear();
+    copy_references(exp, prepared, dir)?;
     write_csv(&rows, &dir.join("metrics.csv"))?;
+    write_previews(exp, &rows, dir)?;
     write_strips(exp, prepared, &rows, dir)?;
     crate::report::write_plots(&rows, dir)?;
     let gathers = crate::report::final_gather::comparisons(&rows, dir)?;
     crate::report::final_gather::write_csv(&gathers, dir)?;
-    crate::report::ratios::write_csv(&crate::report::ratios::ratios(&rows), dir)?;
-    crate::report::write_summary(&exp.name, &exp.description, &rows, &gathers, dir)?;
-    crate::report::html::write_index(&rows, &gathers, dir)?;
+    let baseline = exp.baseline.as_deref();
+    crate::report::ratios::write_csv(&crate::report::ratios::ratios(&rows, baseline), dir)?;
+    crate::report::write_summary(&exp.name, &exp.description, &rows, baseline, &gathers, dir)?;
+    crate::report::html::write_index(&rows, &gathers, dir, exp.exposure as f64)?;
     Ok((cached, rendered))
 }
 
