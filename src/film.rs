@@ -98,6 +98,27 @@ impl Film {
         }
     }
 
+    /// The pixel accumulators, row by row.
+    pub fn accumulators(&self) -> &[PixelAccumulator] {
+        &self.pixels
+    }
+
+    /// Adds the samples and splats of `other` (a film of the same size holding other samples
+    /// of the same render) to this one.
+    pub fn absorb(&mut self, other: &Film) {
+        assert_eq!(
+            (self.width, self.height),
+            (other.width, other.height),
+            "films of one render"
+        );
+        for (p, q) in self.pixels.iter_mut().zip(&other.pixels) {
+            p.sum += q.sum;
+            p.count += q.count;
+            p.non_finite += q.non_finite;
+        }
+        self.non_finite_splats += other.non_finite_splats;
+    }
+
     /// Samples (and splats) dropped because they were NaN or infinite.
     pub fn non_finite(&self) -> u64 {
         self.non_finite_splats + self.pixels.iter().map(|p| p.non_finite as u64).sum::<u64>()

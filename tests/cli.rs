@@ -202,6 +202,47 @@ fn assert_offline_page(run: &Path) {
     assert!(links > 10, "{links} links");
 }
 
+/// The command a refusal quotes between backticks, as words.
+fn quoted_command(err: &str) -> Vec<String> {
+    let start = err.find("`bench ").expect("a quoted bench command") + 1;
+    let end = start + err[start..].find('`').unwrap();
+    err[start..end].split_whitespace().skip(1).map(String::from).collect()
+}
+
+#[test]
+fn the_missing_reference_hint_writes_where_the_experiment_reads() {
+    let p = project();
+    let root = p.path();
+    // Run from another directory than the project's: the hint must still be right.
+    let elsewhere = root.join("elsewhere");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    let o = bench(&elsewhere, &["run", "../experiments/tiny.toml"]);
+    assert_refused(&o, &["reference missing", "--out"]);
+    let args: Vec<String> = quoted_command(&stderr(&o))
+        .into_iter()
+        .map(|a| if a == "<N>" { "4".to_string() } else { a })
+        .collect();
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let made = bench(&elsewhere, &args);
+    assert!(made.status.success(), "{args:?}: {}", stderr(&made));
+    let o = bench(&elsewhere, &["run", "../experiments/tiny.toml"]);
+    assert!(o.status.success(), "after following the hint: {}", stderr(&o));
+    // The run keeps the reference it measured against; a 4-spp reference is mostly noise, and
+    // the run says so.
+    let run = &run_dirs(root)[0];
+    assert!(run.join("references/tiny.exr").exists() && run.join("references/tiny.json").exists());
+    assert!(
+        stderr(&o).contains("the reference's own noise (4 spp)"),
+        "{}",
+        stderr(&o)
+    );
+    let rows = photon_bench::report::rows::read_csv(&run.join("metrics.csv")).unwrap();
+    assert!(
+        rows.iter()
+            .all(|r| r.reference_mse > 0.0 && r.reference_mse.is_finite())
+    );
+}
+
 #[test]
 fn stale_reference_is_refused_with_the_command_that_regenerates_it() {
     let p = project();
@@ -217,11 +258,14 @@ fn stale_reference_is_refused_with_the_command_that_regenerates_it() {
         scene.replace("[0.73, 0.73, 0.73]", "[0.7, 0.7, 0.7]"),
     )
     .unwrap();
-    assert_refused(
-        &bench(root, &["run", "experiments/tiny.toml"]),
-        &["references/tiny.exr", "bench reference scenes/tiny.toml --spp 2"],
-    );
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert_refused(&o, &["references/tiny.exr", "bench reference scenes/tiny.toml --spp 2"]);
     assert!(run_dirs(root).is_empty(), "nothing written");
+    // Following the quoted command makes the experiment run.
+    let args = quoted_command(&stderr(&o));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    assert!(bench(root, &args).status.success(), "{args:?}");
+    assert!(bench(root, &["run", "experiments/tiny.toml"]).status.success());
 }
 
 #[test]

@@ -69,6 +69,13 @@ pub struct Row {
     /// NaN in files written before it existed, like `flip`.
     #[serde(default = "not_recorded")]
     pub mse_ldr: f64,
+    /// The reference's own noise: the MSE it adds to every measured `mse` in expectation
+    /// (E[MSE(I, R)] = MSE(I, truth) + this, for an image independent of the reference), from
+    /// the reference's two independent halves ([`crate::experiment::reference::ReferenceNoise`]).
+    /// Subtract it to estimate the error against the converged image. The last column; NaN for
+    /// references made before it was recorded, and in older files.
+    #[serde(default = "not_recorded")]
+    pub reference_mse: f64,
 }
 
 fn not_recorded() -> f64 {

@@ -144,6 +144,7 @@ pub(super) fn render_cell(
         mean_b: 0.0,
         image: String::new(),
         counters: String::new(),
+        reference_mse: p.reference.noise_mse(),
     };
     let counters = CounterClock::new(strategy.counters());
     let (width, height) = (p.scene.camera.width, p.scene.camera.height);

@@ -272,6 +272,8 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
                 for r in &mut cell_rows {
                     r.experiment = exp.name.clone();
                     r.run_id = run_id.to_string();
+                    // Cells cached before the column existed read it as NaN.
+                    r.reference_mse = p.reference.noise_mse();
                 }
                 rows.extend(cell_rows);
                 bar.inc(1);
@@ -279,6 +281,9 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
         }
     }
     bar.finish_and_clear();
+    for warning in reference::noise_warnings(&rows) {
+        eprintln!("warning: {warning}");
+    }
     copy_references(exp, prepared, dir)?;
     write_csv(&rows, &dir.join("metrics.csv"))?;
     write_previews(exp, &rows, dir)?;
