@@ -901,3 +901,49 @@ fn provenance_is_the_revision_the_binary_was_built_from() {
         assert!(built.starts_with(&ours), "{built} vs {ours}");
     }
 }
+
+#[test]
+fn exposure_brightens_the_previews_and_leaves_the_metrics_and_the_cells_alone() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "8"])
+            .status
+            .success()
+    );
+    assert!(bench(root, &["run", "experiments/tiny.toml"]).status.success());
+    let rel = "images/tiny_path_seed0_spp2.png";
+    let first_preview = std::fs::read(run_dirs(root)[0].join(rel)).unwrap();
+    let text = std::fs::read_to_string(root.join("experiments/tiny.toml")).unwrap();
+    std::fs::write(
+        root.join("experiments/tiny.toml"),
+        text.replace("seeds = 2", "seeds = 2\nexposure = 1\nbaseline = \"uniform\""),
+    )
+    .unwrap();
+    let o = bench(root, &["run", "experiments/tiny.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cells: 4 cached, 0 rendered"), "{}", stderr(&o));
+    let mut runs = run_dirs(root);
+    runs.sort();
+    let mean = |run: &Path, rel: &str| -> f64 {
+        let img = image::open(run.join(rel)).unwrap().to_rgb8();
+        img.pixels()
+            .map(|p| p.0.iter().map(|&c| c as f64).sum::<f64>())
+            .sum::<f64>()
+            / img.len() as f64
+    };
+    assert!(mean(&runs[1], rel) > 1.1 * mean(&runs[0], rel), "one stop brighter");
+    // The first run's preview, a hard link to the cell's, is untouched.
+    assert_eq!(std::fs::read(runs[0].join(rel)).unwrap(), first_preview);
+    let rows = |run: &Path| photon_bench::report::rows::read_csv(&run.join("metrics.csv")).unwrap();
+    let mse = |rows: Vec<photon_bench::report::rows::Row>| rows.iter().map(|r| r.mse).collect::<Vec<_>>();
+    assert_eq!(mse(rows(&runs[0])), mse(rows(&runs[1])));
+    // The ratio table now compares with `uniform`.
+    let baselines = |run: &Path| -> Vec<String> {
+        let mut r = csv::Reader::from_path(run.join("ratios.csv")).unwrap();
+        let col = r.headers().unwrap().iter().position(|h| h == "baseline").unwrap();
+        r.records().map(|rec| rec.unwrap()[col].to_string()).collect()
+    };
+    assert_eq!(baselines(&runs[0]), ["path"]);
+    assert_eq!(baselines(&runs[1]), ["uniform"]);
+}
