@@ -201,6 +201,7 @@ pub fn write_exr(image: &Image, path: &Path) -> Result<()> {
 /// Reads the first RGB(A) layer of an OpenEXR file as f32 linear RGB (alpha is ignored).
 /// A missing, unreadable or corrupt file is a one-line error naming the path.
 pub fn read_exr(path: &Path) -> Result<Image> {
+    crate::util::check_input(path, "EXR image", crate::util::MAX_IMAGE_INPUT)?;
     let read = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |resolution, _| {

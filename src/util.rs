@@ -19,6 +19,109 @@ pub fn content_hash(parts: &[&[u8]]) -> String {
     format!("{h:016x}")
 }
 
+/// Largest experiment, scene (TOML or Mitsuba XML) or sidecar file read: far above any real
+/// one (the largest shipped scene is a few kB; a Mitsuba scene inlining its geometry a few MB).
+pub const MAX_TEXT_INPUT: u64 = 64 << 20;
+/// Largest mesh file read (OBJ, PLY, Mitsuba's serialized): meshes are read whole into memory,
+/// and 4 GiB is beyond the triangle limit of a scene ([`crate::scene::limits`]).
+pub const MAX_MESH_INPUT: u64 = 4 << 30;
+/// Largest EXR read (a reference or a run's image): 4 GiB holds a 16k × 16k RGBA f32 image.
+pub const MAX_IMAGE_INPUT: u64 = 4 << 30;
+/// Largest CSV read (`metrics.csv` of a run): millions of rows.
+pub const MAX_CSV_INPUT: u64 = 4 << 30;
+
+/// Checks that `path` is a regular file (after symbolic links) of at most `limit` bytes, before
+/// anything reads it: a device (`/dev/zero`), FIFO, socket or directory would read forever or
+/// fail late, and a file larger than any real input of its kind would fill memory. `what`
+/// names the kind of input in the one-line error ("experiment file", "mesh").
+pub fn check_input(path: &Path, what: &str, limit: u64) -> Result<u64> {
+    let meta = std::fs::metadata(path)
+        .map_err(|e| crate::error::Error::new(format!("{}: cannot read the {what}: {e}", path.display())))?;
+    if !meta.is_file() {
+        return Err(crate::error::Error::new(format!(
+            "{}: expected a regular file (the {what}), found {}",
+            path.display(),
+            file_kind(&meta)
+        )));
+    }
+    if meta.len() > limit {
+        return Err(too_large(path, what, meta.len(), limit));
+    }
+    Ok(meta.len())
+}
+
+fn too_large(path: &Path, what: &str, size: u64, limit: u64) -> crate::error::Error {
+    crate::error::Error::new(format!(
+        "{}: {} is larger than any {what} (limit {})",
+        path.display(),
+        human_bytes(size),
+        human_bytes(limit)
+    ))
+}
+
+/// What a non-regular file is, for messages.
+fn file_kind(meta: &std::fs::Metadata) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    let t = meta.file_type();
+    if t.is_dir() {
+        "a directory"
+    } else if t.is_char_device() {
+        "a character device"
+    } else if t.is_block_device() {
+        "a block device"
+    } else if t.is_fifo() {
+        "a FIFO (named pipe)"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "something other than a file"
+    }
+}
+
+/// `3.1 GiB`, `640 KiB`, `12 B`.
+pub fn human_bytes(n: u64) -> String {
+    let units = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = n as f64;
+    let mut k = 0;
+    while v >= 1024.0 && k + 1 < units.len() {
+        v /= 1024.0;
+        k += 1;
+    }
+    if k == 0 {
+        format!("{n} B")
+    } else {
+        format!("{v:.1} {}", units[k])
+    }
+}
+
+/// Reads an input file whole after [`check_input`], and never more than `limit` bytes even if
+/// the file grows while it is read.
+pub fn read_input(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let size = check_input(path, what, limit)?;
+    let file = std::fs::File::open(path)
+        .map_err(|e| crate::error::Error::new(format!("{}: cannot read the {what}: {e}", path.display())))?;
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| crate::error::Error::new(format!("{}: cannot read the {what}: {e}", path.display())))?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(path, what, bytes.len() as u64, limit));
+    }
+    Ok(bytes)
+}
+
+/// [`read_input`] of a UTF-8 text file.
+pub fn read_input_to_string(path: &Path, what: &str, limit: u64) -> Result<String> {
+    String::from_utf8(read_input(path, what, limit)?).map_err(|e| {
+        crate::error::Error::new(format!(
+            "{}: the {what} is not valid UTF-8 (first bad byte at offset {})",
+            path.display(),
+            e.utf8_error().valid_up_to()
+        ))
+    })
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and
 /// synced, then renamed over the target. A reader never sees a partial file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
@@ -92,6 +195,46 @@ pub fn cpu_model() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn inputs_that_are_not_regular_files_or_too_large_are_refused_before_reading() {
+        let dir = tempfile::tempdir().unwrap();
+        let msg = |r: Result<Vec<u8>>| r.unwrap_err().to_string();
+        let zero = msg(read_input(Path::new("/dev/zero"), "scene file", MAX_TEXT_INPUT));
+        assert_eq!(
+            zero,
+            "/dev/zero: expected a regular file (the scene file), found a character device"
+        );
+        let d = msg(read_input(dir.path(), "mesh", MAX_MESH_INPUT));
+        assert!(
+            d.ends_with("expected a regular file (the mesh), found a directory"),
+            "{d}"
+        );
+        let fifo = dir.path().join("pipe");
+        assert!(
+            std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+        // Opening a FIFO without a writer would block: the check must come first.
+        assert!(msg(read_input(&fifo, "experiment file", MAX_TEXT_INPUT)).ends_with("found a FIFO (named pipe)"));
+        let big = dir.path().join("big.toml");
+        std::fs::write(&big, vec![b'#'; 3000]).unwrap();
+        assert_eq!(
+            msg(read_input(&big, "experiment file", 2048)),
+            format!(
+                "{}: 2.9 KiB is larger than any experiment file (limit 2.0 KiB)",
+                big.display()
+            )
+        );
+        assert_eq!(read_input(&big, "experiment file", 3000).unwrap().len(), 3000);
+        assert!(msg(read_input(&dir.path().join("absent"), "mesh", 10)).contains("cannot read the mesh"));
+        std::fs::write(&big, [0xff, 0xfe]).unwrap();
+        assert!(msg(read_input_to_string(&big, "scene file", 10).map(String::into_bytes)).contains("not valid UTF-8"));
+        assert_eq!(human_bytes(3 << 30), "3.0 GiB");
+    }
 
     #[test]
     fn hash_separates_parts_and_is_stable() {

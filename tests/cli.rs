@@ -947,3 +947,111 @@ fn exposure_brightens_the_previews_and_leaves_the_metrics_and_the_cells_alone() 
     assert_eq!(baselines(&runs[0]), ["path"]);
     assert_eq!(baselines(&runs[1]), ["uniform"]);
 }
+
+/// `bench` with `args` in `dir`, killed (and the test failed) after 20 s: an input that is
+/// read forever must not hang the suite.
+fn bench_within_20_s(dir: &Path, args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bench"))
+        .current_dir(dir)
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > std::time::Duration::from_secs(20) {
+            child.kill().unwrap();
+            panic!("bench {args:?} still running after 20 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn inputs_that_are_not_regular_files_or_too_large_are_refused_at_once() {
+    let p = project();
+    let root = p.path();
+    assert!(
+        bench(root, &["reference", "scenes/tiny.toml", "--spp", "2"])
+            .status
+            .success()
+    );
+    let exp = std::fs::read_to_string(root.join("experiments/tiny.toml")).unwrap();
+    std::fs::write(
+        root.join("experiments/zero-scene.toml"),
+        exp.replace("../scenes/tiny.toml", "/dev/zero"),
+    )
+    .unwrap();
+    let scene = std::fs::read_to_string(root.join("scenes/tiny.toml")).unwrap();
+    std::fs::write(
+        root.join("scenes/zero-mesh.toml"),
+        format!("{scene}\n[[shapes]]\ntype = \"mesh\"\nfile = \"/dev/zero\"\nmaterial = \"white\"\n"),
+    )
+    .unwrap();
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(root.join("experiments/fifo.toml"))
+            .status()
+            .unwrap()
+            .success()
+    );
+    // A sparse 100 MB experiment file: larger than any real one.
+    std::fs::File::create(root.join("experiments/huge.toml"))
+        .unwrap()
+        .set_len(100 << 20)
+        .unwrap();
+    let before: Vec<PathBuf> = walk(root);
+    for (args, expected) in [
+        (
+            vec!["run", "/dev/zero"],
+            vec!["/dev/zero", "regular file", "experiment file", "character device"],
+        ),
+        (
+            vec!["reference", "/dev/zero", "--spp", "1"],
+            vec!["/dev/zero", "scene file", "character device"],
+        ),
+        (
+            vec!["run", "experiments/zero-scene.toml"],
+            vec!["/dev/zero", "scene file"],
+        ),
+        (
+            vec!["reference", "scenes/zero-mesh.toml", "--spp", "1"],
+            vec!["/dev/zero", "expected a regular file"],
+        ),
+        (vec!["run", "experiments/fifo.toml"], vec!["fifo.toml", "FIFO"]),
+        (vec!["run", "experiments"], vec!["experiments", "directory"]),
+        (
+            vec!["run", "experiments/huge.toml"],
+            vec!["huge.toml", "100.0 MiB is larger than any experiment file"],
+        ),
+        (vec!["plot", "/dev"], vec!["/dev", "metrics.csv"]),
+    ] {
+        let o = bench_within_20_s(root, &args);
+        assert_refused(&o, &expected);
+    }
+    // A reference EXR replaced by a device.
+    std::fs::remove_file(root.join("references/tiny.exr")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", root.join("references/tiny.exr")).unwrap();
+    let o = bench_within_20_s(root, &["run", "experiments/tiny.toml"]);
+    assert_refused(&o, &["references/tiny.exr", "character device"]);
+    assert_eq!(walk(root), before, "nothing written");
+}
+
+/// Every path under `root`, sorted.
+fn walk(root: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let path = e.unwrap().path();
+            if path.is_dir() && !path.is_symlink() {
+                stack.push(path.clone());
+            }
+            out.push(path);
+        }
+    }
+    out.sort();
+    out
+}

@@ -520,7 +520,7 @@ fn bad_meshes_give_one_line_errors_naming_the_file() {
     let msg = error(&mesh_scene("meshes/missing.obj", ""));
     assert_error(&msg, "shapes[2].file", &["cannot read", "missing.obj"]);
     let msg = error(&mesh_scene("/dev/zero", ""));
-    assert_error(&msg, "shapes[2].file", &["/dev/zero", "not a regular file"]);
+    assert_error(&msg, "shapes[2].file", &["/dev/zero", "expected a regular file"]);
 
     let cases: [(&[u8], &str); 5] = [
         (b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "non-finite"),

@@ -137,7 +137,7 @@ pub fn load(dir: &Path, scene: &Scene) -> Result<Reference> {
     let exr = exr_path(dir, &scene.name);
     // The command writes where this experiment reads (`--out`), from the same directory.
     let out = format!("--out {}", dir.display());
-    if !exr.exists() {
+    if !exr.exists() && std::fs::symlink_metadata(&exr).is_err() {
         return Err(Error::new(format!(
             "{}: reference missing for scene `{}`; make it with `bench reference {} --spp <N> {out}`",
             exr.display(),
@@ -146,8 +146,7 @@ pub fn load(dir: &Path, scene: &Scene) -> Result<Reference> {
         )));
     }
     let side = sidecar_path(&exr);
-    let text =
-        std::fs::read_to_string(&side).context(format!("{}: cannot read the reference's sidecar", side.display()))?;
+    let text = crate::util::read_input_to_string(&side, "reference's sidecar", crate::util::MAX_TEXT_INPUT)?;
     let info: ReferenceInfo = serde_json::from_str(&text).context(side.display())?;
     if info.scene_hash != scene.content_hash {
         return Err(Error::new(format!(
@@ -171,7 +170,11 @@ pub fn load(dir: &Path, scene: &Scene) -> Result<Reference> {
             info.command
         )));
     }
-    let hash = crate::util::content_hash(&[&std::fs::read(&exr).context(exr.display())?]);
+    let hash = crate::util::content_hash(&[&crate::util::read_input(
+        &exr,
+        "reference EXR",
+        crate::util::MAX_IMAGE_INPUT,
+    )?]);
     Ok(Reference { image, info, hash })
 }
 

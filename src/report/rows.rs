@@ -277,6 +277,7 @@ pub fn write_csv(rows: &[Row], path: &Path) -> Result<()> {
 
 /// Reads rows written by [`write_csv`].
 pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
+    crate::util::check_input(path, "metrics CSV", crate::util::MAX_CSV_INPUT)?;
     let mut r = csv::Reader::from_path(path).context(path.display())?;
     r.deserialize().map(|row| row.context(path.display())).collect()
 }

@@ -43,7 +43,7 @@ pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
     // The scene must load as it is: export never writes what `bench run` would refuse.
     let (_, stats) = load_scene_with_stats(scene)?;
     let desc = if super::load::is_mitsuba(scene) {
-        let text = std::fs::read_to_string(scene).context(scene.display())?;
+        let text = crate::util::read_input_to_string(scene, "scene file", crate::util::MAX_TEXT_INPUT)?;
         let dir = scene.parent().unwrap_or(Path::new(""));
         super::mitsuba::import(&scene.display().to_string(), dir, &text)?.desc
     } else {
@@ -199,7 +199,8 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
                 } else {
                     path.canonicalize().unwrap_or(path.clone())
                 };
-                let text = std::fs::read(&path).map_err(|e| err(&format!("{field}.file"), &format!("{e}")))?;
+                let text = crate::util::read_input(&path, "mesh", crate::util::MAX_MESH_INPUT)
+                    .map_err(|e| err(&format!("{field}.file"), &format!("{e}")))?;
                 let has_normals = text
                     .split(|&b| b == b'\n')
                     .any(|l| l.trim_ascii_start().starts_with(b"vn "));

@@ -133,8 +133,7 @@ impl Experiment {
     /// Loads an experiment whose strategies are those of `registry` (the crate's and any
     /// registered from outside: `docs/adding-a-strategy.md`).
     pub fn load_with(file: &Path, registry: &Registry) -> Result<Experiment> {
-        let text = std::fs::read_to_string(file)
-            .map_err(|e| Error::new(format!("{}: cannot read experiment file: {e}", file.display())))?;
+        let text = crate::util::read_input_to_string(file, "experiment file", crate::util::MAX_TEXT_INPUT)?;
         Self::parse_with(file, text, registry)
     }
 

@@ -357,12 +357,15 @@ impl Builder<'_> {
     }
 }
 
-/// Reads a file, refusing devices and pipes (`/dev/zero` would never end).
+/// Reads a mesh file, refusing devices, pipes and files larger than any mesh
+/// ([`crate::util::read_input`]).
 pub(super) fn read_regular_file(path: &Path) -> std::io::Result<Vec<u8>> {
-    if !std::fs::metadata(path)?.is_file() {
-        return Err(std::io::Error::other("not a regular file"));
-    }
-    std::fs::read(path)
+    // The caller names the path; the message keeps only what is wrong with it.
+    crate::util::read_input(path, "mesh", crate::util::MAX_MESH_INPUT).map_err(|e| {
+        let msg = e.to_string();
+        let prefix = format!("{}: ", path.display());
+        std::io::Error::other(msg.strip_prefix(&prefix).unwrap_or(&msg).to_string())
+    })
 }
 
 /// A triangle is degenerate when its normal is not computable in f32: zero or non-finite

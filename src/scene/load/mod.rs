@@ -87,8 +87,7 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
 
 /// Loads and validates a scene file, and says what it skipped.
 pub fn load_scene_with_stats(path: &Path) -> Result<(Scene, LoadStats)> {
-    let bytes =
-        std::fs::read(path).map_err(|e| Error::new(format!("{}: cannot read the scene file: {e}", path.display())))?;
+    let bytes = crate::util::read_input(path, "scene file", crate::util::MAX_TEXT_INPUT)?;
     load_scene_bytes(path, &bytes)
 }
 
@@ -200,8 +199,7 @@ pub(crate) fn read_desc(path: &Path) -> Result<SceneDesc> {
     let ctx = Ctx {
         file: path.display().to_string(),
     };
-    let bytes =
-        std::fs::read(path).map_err(|e| Error::new(format!("{}: cannot read the scene file: {e}", path.display())))?;
+    let bytes = crate::util::read_input(path, "scene file", crate::util::MAX_TEXT_INPUT)?;
     let text = std::str::from_utf8(&bytes).map_err(|e| {
         ctx.whole(format!(
             "not valid UTF-8 (first bad byte at offset {})",

@@ -107,7 +107,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 };
                 let face_normals = self.boolean(&mut o, "face_normals")?.unwrap_or(false);
                 let path = self.dir.join(&file);
-                let text = std::fs::read(&path)
+                let text = crate::util::read_input(&path, "mesh", crate::util::MAX_MESH_INPUT)
                     .map_err(|e| self.err(p, format!("filename: cannot read {}: {e}", path.display())))?;
                 let has_normals = text
                     .split(|&b| b == b'\n')
