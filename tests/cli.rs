@@ -95,6 +95,8 @@ fn reference_then_run_writes_a_complete_result_directory() {
         assert!(r.params.contains("bsdf_sampling="));
         assert!(run.join(&r.image).exists() && run.join(&r.image).with_extension("png").exists());
     }
+    let long = std::fs::read_to_string(run.join("metrics_long.csv")).unwrap();
+    assert!(long.contains(",params,bsdf_sampling,uniform"), "{long}");
     for f in [
         "summary.md",
         "experiment.toml",

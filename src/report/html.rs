@@ -92,7 +92,7 @@ pub fn write_index(rows: &[Row], gathers: &[super::final_gather::Comparison], di
     }
     let _ = writeln!(
         h,
-        "<p><a href=\"metrics.csv\">metrics.csv</a> · <a href=\"summary.md\">summary.md</a> · \
+        "<p><a href=\"metrics.csv\">metrics.csv</a> · <a href=\"metrics_long.csv\">metrics_long.csv</a> · <a href=\"summary.md\">summary.md</a> · \
          <a href=\"experiment.toml\">experiment.toml</a></p>"
     );
     h.push_str(&super::page::viewer(rows, dir, exposure)?);

@@ -218,9 +218,7 @@ pub fn counter(row: &Row, name: &str) -> Option<f64> {
 impl Row {
     /// The preparation phases: `name=seconds;…` parsed (unreadable entries skipped).
     pub fn phases(&self) -> Vec<(&str, f64)> {
-        self.phases
-            .split(';')
-            .filter_map(|p| p.split_once('='))
+        unpack(&self.phases)
             .filter_map(|(name, s)| s.parse().ok().map(|s| (name, s)))
             .collect()
     }
@@ -275,6 +273,51 @@ pub fn write_csv(rows: &[Row], path: &Path) -> Result<()> {
     })
 }
 
+/// The `key=value` entries of a packed column (`params`, `phases`, `counters`): split at `;`,
+/// then at each entry's first `=` (values such as `[4, 16]` hold neither separator).
+pub fn unpack(packed: &str) -> impl Iterator<Item = (&str, &str)> {
+    packed
+        .split(';')
+        .filter(|e| !e.is_empty())
+        .map(|e| e.split_once('=').unwrap_or((e, "")))
+}
+
+/// The columns of `metrics_long.csv` that say which row an entry belongs to.
+const LONG_ID_COLUMNS: [&str; 6] = ["run_id", "scene", "strategy", "seed", "budget", "budget_value"];
+
+/// Writes the packed columns of `rows` in long (tidy) form, atomically: one line per entry of
+/// `params`, `phases` and `counters`, with the columns that identify its row, then `field`
+/// (which packed column), `key` and `value` (as written in the packed column). pandas reads it
+/// without string splitting: `pd.read_csv("metrics_long.csv").pivot_table(…)`.
+pub fn write_long_csv(rows: &[Row], path: &Path) -> Result<()> {
+    crate::util::write_atomic_with(path, |tmp| {
+        let mut w = csv::Writer::from_path(tmp).context(tmp.display())?;
+        let header = LONG_ID_COLUMNS.iter().chain(&["field", "key", "value"]);
+        w.write_record(header).context(path.display())?;
+        for r in rows {
+            let seed = r.seed.to_string();
+            let budget_value = r.budget_value.to_string();
+            for (field, packed) in [("params", &r.params), ("phases", &r.phases), ("counters", &r.counters)] {
+                for (key, value) in unpack(packed) {
+                    w.write_record([
+                        r.run_id.as_str(),
+                        &r.scene,
+                        &r.strategy,
+                        &seed,
+                        &r.budget,
+                        &budget_value,
+                        field,
+                        key,
+                        value,
+                    ])
+                    .context(path.display())?;
+                }
+            }
+        }
+        w.flush().context(path.display())
+    })
+}
+
 /// Reads rows written by [`write_csv`].
 pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
     crate::util::check_input(path, "metrics CSV", crate::util::MAX_CSV_INPUT)?;
@@ -285,6 +328,76 @@ pub fn read_csv(path: &Path) -> Result<Vec<Row>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_long_csv_holds_every_packed_entry_once_and_nothing_else() {
+        let row = |strategy: &str, seed: u64, params: &str, phases: &str, counters: &str| Row {
+            run_id: "r".into(),
+            scene: "s".into(),
+            strategy: strategy.into(),
+            seed,
+            budget: BUDGET_SPP.into(),
+            budget_value: 4.0,
+            params: params.into(),
+            phases: phases.into(),
+            counters: counters.into(),
+            ..Row::default()
+        };
+        let rows = [
+            row(
+                "mps",
+                0,
+                "grid=[4, 16];mutation.proposals=up;b_samples=none;gather_rays=16",
+                "photon_map=0.25;b_eye=1.5",
+                "rays=1e6;photons=20000",
+            ),
+            row("path", 1, "max_depth=16", "", ""),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("metrics_long.csv");
+        write_long_csv(&rows, &path).unwrap();
+        let mut reader = csv::Reader::from_path(&path).unwrap();
+        assert_eq!(
+            reader.headers().unwrap().iter().collect::<Vec<_>>(),
+            [
+                "run_id",
+                "scene",
+                "strategy",
+                "seed",
+                "budget",
+                "budget_value",
+                "field",
+                "key",
+                "value"
+            ]
+        );
+        let lines: Vec<Vec<String>> = reader
+            .records()
+            .map(|r| r.unwrap().iter().map(String::from).collect())
+            .collect();
+        let mut expected = Vec::new();
+        for r in &rows {
+            for (field, packed) in [("params", &r.params), ("phases", &r.phases), ("counters", &r.counters)] {
+                for entry in packed.split(';').filter(|e| !e.is_empty()) {
+                    let (k, v) = entry.split_once('=').unwrap();
+                    expected.push(vec![
+                        "r".to_string(),
+                        "s".into(),
+                        r.strategy.clone(),
+                        r.seed.to_string(),
+                        "spp".into(),
+                        "4".into(),
+                        field.into(),
+                        k.into(),
+                        v.into(),
+                    ]);
+                }
+            }
+        }
+        assert_eq!(lines, expected);
+        assert!(lines.iter().any(|l| l[7] == "grid" && l[8] == "[4, 16]"));
+        assert!(lines.iter().any(|l| l[7] == "mutation.proposals" && l[8] == "up"));
+    }
 
     #[test]
     fn files_written_before_the_flip_column_load_and_compare_without_it() {

@@ -286,6 +286,7 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
     }
     copy_references(exp, prepared, dir)?;
     write_csv(&rows, &dir.join("metrics.csv"))?;
+    crate::report::rows::write_long_csv(&rows, &dir.join("metrics_long.csv"))?;
     write_previews(exp, &rows, dir)?;
     write_strips(exp, prepared, &rows, dir)?;
     crate::report::write_plots(&rows, dir)?;
