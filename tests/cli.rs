@@ -80,6 +80,22 @@ fn reference_then_run_writes_a_complete_result_directory() {
 
     let o = bench(root, &["--threads", "2", "run", "experiments/tiny.toml"]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // stderr is a pipe here, as in a CI or batch log: one line per finished cell, the last
+    // one with nothing left.
+    let progress: Vec<String> = stderr(&o)
+        .lines()
+        .filter(|l| l.starts_with('['))
+        .map(String::from)
+        .collect();
+    assert_eq!(progress.len(), 4, "{progress:?}");
+    assert!(
+        progress[0].starts_with("[1/4] tiny · path · seed 0: rendered in "),
+        "{progress:?}"
+    );
+    assert!(
+        progress[1].contains(" left") && !progress[3].contains(" left"),
+        "{progress:?}"
+    );
     let dirs = run_dirs(root);
     assert_eq!(
         dirs.len(),
@@ -179,6 +195,11 @@ fn reference_then_run_writes_a_complete_result_directory() {
     let o = bench(root, &["run", "experiments/tiny.toml"]);
     assert!(o.status.success());
     assert!(stderr(&o).contains("cells: 4 cached, 0 rendered"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("[4/4] tiny · uniform · seed 1: cached"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(run_dirs(root).len(), 2);
     assert_eq!(cached_cells(root).len(), 4);
 }

@@ -27,6 +27,7 @@
 mod cache;
 mod cell;
 mod images;
+mod progress;
 mod run_dir;
 
 pub use cache::cell_hash;
@@ -41,7 +42,7 @@ use super::reference::{self, Reference};
 use crate::error::{Context, Result};
 use crate::report::rows::write_csv;
 use crate::scene::{Scene, load_scene};
-use indicatif::{ProgressBar, ProgressStyle};
+use progress::Progress;
 use std::path::{Path, PathBuf};
 
 /// A scene with its reference, loaded and checked.
@@ -120,20 +121,29 @@ pub fn run_shard(exp: &Experiment, force: bool, shard: Shard) -> Result<(usize, 
         cpu: crate::util::cpu_model(),
     };
     let cells_dir = exp.output.join(&exp.name).join("cells");
+    let owned = |k: usize| shard.owns(k);
+    let mine = plan(exp, &prepared).enumerate().filter(|(k, _)| owned(*k)).count();
+    let mut progress = Progress::new(mine, to_render(exp, &prepared, force, owned)?);
     let (mut cached, mut rendered) = (0, 0);
     for (k, (p, spec, seed)) in plan(exp, &prepared).enumerate() {
-        if !shard.owns(k) {
+        if !owned(k) {
             continue;
         }
+        let name = format!("{} · {} · seed {seed}", p.scene.name, spec.label);
+        progress.start_cell(&name);
         let params = param_string(spec)?;
         let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
         if !force && load_cell(&cells_dir.join(&hash)).is_some() {
             cached += 1;
+            progress.finish_cell(&name, None);
         } else {
+            let start = std::time::Instant::now();
             store_cell(&cells_dir, &hash, |tmp| render_cell(exp, p, spec, seed, &env, tmp))?;
             rendered += 1;
+            progress.finish_cell(&name, Some(start.elapsed().as_secs_f64()));
         }
     }
+    progress.finish();
     Ok((cached, rendered))
 }
 
@@ -165,6 +175,23 @@ pub fn merge(exp: &Experiment, imports: &[PathBuf]) -> Result<Outcome> {
         )));
     }
     run(exp, false)
+}
+
+/// How many cells of the plan that `owns` (by plan position) are not in the cache (all of them
+/// with `force`).
+fn to_render(exp: &Experiment, prepared: &[Prepared], force: bool, owns: impl Fn(usize) -> bool) -> Result<usize> {
+    let cells_dir = exp.output.join(&exp.name).join("cells");
+    let mut n = 0;
+    for (k, (p, spec, seed)) in plan(exp, prepared).enumerate() {
+        if !owns(k) {
+            continue;
+        }
+        let hash = cell_hash(&p.scene, &p.reference, spec, &param_string(spec)?, seed);
+        if force || load_cell(&cells_dir.join(&hash)).is_none() {
+            n += 1;
+        }
+    }
+    Ok(n)
 }
 
 /// Every cell of the experiment in plan order: scene, strategy, seed.
@@ -238,11 +265,7 @@ fn copy_references(exp: &Experiment, prepared: &[Prepared], dir: &Path) -> Resul
 /// Renders (or takes from the cache) every cell into `dir`; returns (cached, rendered) counts.
 fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, force: bool) -> Result<(usize, usize)> {
     std::fs::write(dir.join("experiment.toml"), &exp.text).context(dir.display())?;
-    let cells = plan(exp, prepared).count();
-    let bar = ProgressBar::new(cells as u64).with_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let mut progress = Progress::new(plan(exp, prepared).count(), to_render(exp, prepared, force, |_| true)?);
     let env = Environment {
         run_id: run_id.to_string(),
         threads: rayon::current_num_threads(),
@@ -255,17 +278,22 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
         for spec in exp.strategies.iter().filter(|s| s.runs_on(&p.file)) {
             let params = param_string(spec)?;
             for &seed in &exp.seeds {
-                bar.set_message(format!("{} · {} · seed {seed}", p.scene.name, spec.label));
+                let name = format!("{} · {} · seed {seed}", p.scene.name, spec.label);
+                progress.start_cell(&name);
                 let hash = cell_hash(&p.scene, &p.reference, spec, &params, seed);
                 let cell = cells_dir.join(&hash);
+                let start = std::time::Instant::now();
                 let mut cell_rows = match load_cell(&cell).filter(|_| !force) {
                     Some(r) => {
                         cached += 1;
+                        progress.finish_cell(&name, None);
                         r
                     }
                     None => {
                         rendered += 1;
-                        store_cell(&cells_dir, &hash, |tmp| render_cell(exp, p, spec, seed, &env, tmp))?
+                        let r = store_cell(&cells_dir, &hash, |tmp| render_cell(exp, p, spec, seed, &env, tmp))?;
+                        progress.finish_cell(&name, Some(start.elapsed().as_secs_f64()));
+                        r
                     }
                 };
                 link_images(&cell, &cell_rows, dir)?;
@@ -276,11 +304,10 @@ fn run_into(exp: &Experiment, prepared: &[Prepared], run_id: &str, dir: &Path, f
                     r.reference_mse = p.reference.noise_mse();
                 }
                 rows.extend(cell_rows);
-                bar.inc(1);
             }
         }
     }
-    bar.finish_and_clear();
+    progress.finish();
     for warning in reference::noise_warnings(&rows) {
         eprintln!("warning: {warning}");
     }
