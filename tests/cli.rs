@@ -65,6 +65,12 @@ fn cached_cells(root: &Path) -> Vec<PathBuf> {
     }
 }
 
+/// `bench reference scenes/tiny.toml --spp <spp>` in the project, which must succeed.
+fn make_reference(root: &Path, spp: u32) {
+    let o = bench(root, &["reference", "scenes/tiny.toml", "--spp", &spp.to_string()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn reference_then_run_writes_a_complete_result_directory() {
     let p = project();
@@ -270,11 +276,7 @@ fn the_missing_reference_hint_writes_where_the_experiment_reads() {
 fn stale_reference_is_refused_with_the_command_that_regenerates_it() {
     let p = project();
     let root = p.path();
-    assert!(
-        bench(root, &["reference", "scenes/tiny.toml", "--spp", "2"])
-            .status
-            .success()
-    );
+    make_reference(root, 2);
     let scene = std::fs::read_to_string(root.join("scenes/tiny.toml")).unwrap();
     std::fs::write(
         root.join("scenes/tiny.toml"),
@@ -299,11 +301,7 @@ fn bad_input_is_refused_before_anything_is_written() {
         &bench(root, &["run", "experiments/tiny.toml"]),
         &["reference missing", "bench reference scenes/tiny.toml"],
     );
-    assert!(
-        bench(root, &["reference", "scenes/tiny.toml", "--spp", "2"])
-            .status
-            .success()
-    );
+    make_reference(root, 2);
     let cases: [(&str, &[&str]); 5] = [
         ("kind = \"path\"\n[[strategy]]", &["strategy[1]", "used twice"]),
         (
@@ -996,11 +994,7 @@ fn bench_within_20_s(dir: &Path, args: &[&str]) -> Output {
 fn inputs_that_are_not_regular_files_or_too_large_are_refused_at_once() {
     let p = project();
     let root = p.path();
-    assert!(
-        bench(root, &["reference", "scenes/tiny.toml", "--spp", "2"])
-            .status
-            .success()
-    );
+    make_reference(root, 2);
     let exp = std::fs::read_to_string(root.join("experiments/tiny.toml")).unwrap();
     std::fs::write(
         root.join("experiments/zero-scene.toml"),

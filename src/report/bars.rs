@@ -5,7 +5,7 @@
 //! read without rotation or overlap. A value axis whose bars span a decade or more is
 //! logarithmic, as error values of different methods routinely differ by orders of magnitude.
 
-use super::chart::{FONT, LegendEntry, PLOT_SIZE_PX, Scale, draw_legend_beside, layout, write_svg_png};
+use super::chart::{FONT, LegendEntry, PLOT_SIZE_PX, Scale, draw_legend_beside, house_mesh, layout, write_svg_png};
 use super::plot::{log_ticks, tick_label};
 use crate::error::{Error, Result};
 use plotters::coord::Shift;
@@ -132,19 +132,13 @@ fn draw<DB: DrawingBackend>(
         ($chart:expr, $base:expr) => {{
             let mut chart = $chart;
             let x_format = |v: &f64| tick_label(*v);
-            chart
-                .configure_mesh()
+            house_mesh(&mut chart.configure_mesh(), s)
                 .disable_y_mesh()
                 .x_max_light_lines(1)
                 .y_labels(c.labels.len())
                 .y_label_formatter(&y_format)
                 .x_label_formatter(&x_format)
                 .x_desc(c.value_label)
-                .label_style((FONT, s.font(15.0)))
-                .axis_desc_style((FONT, s.font(17.0)))
-                .light_line_style(RGBColor(240, 240, 240).stroke_width(s.stroke(1.0)))
-                .bold_line_style(RGBColor(205, 205, 205).stroke_width(s.stroke(1.0)))
-                .axis_style(BLACK.stroke_width(s.stroke(1.0)))
                 .draw()?;
             let stacked = c.stacked;
             for (i, values) in c.segments.iter().enumerate() {

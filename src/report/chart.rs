@@ -205,6 +205,26 @@ pub(super) fn register_vendored_font() -> Result<()> {
         .clone()
 }
 
+/// The house style of a chart's axes and grid: tick labels, axis titles, a faint minor grid,
+/// a light major grid and thin black axes, all scaled with the drawing.
+pub(super) fn house_mesh<
+    'm,
+    'a,
+    'b,
+    X: plotters::coord::ranged1d::Ranged,
+    Y: plotters::coord::ranged1d::Ranged,
+    DB: DrawingBackend,
+>(
+    mesh: &'m mut plotters::chart::MeshStyle<'a, 'b, X, Y, DB>,
+    s: Scale,
+) -> &'m mut plotters::chart::MeshStyle<'a, 'b, X, Y, DB> {
+    mesh.label_style((FONT, s.font(15.0)))
+        .axis_desc_style((FONT, s.font(17.0)))
+        .light_line_style(RGBColor(243, 243, 243).stroke_width(s.stroke(1.0)))
+        .bold_line_style(RGBColor(205, 205, 205).stroke_width(s.stroke(1.0)))
+        .axis_style(BLACK.stroke_width(s.stroke(1.0)))
+}
+
 /// One entry of a legend.
 pub(super) struct LegendEntry<'a> {
     pub label: &'a str,

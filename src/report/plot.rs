@@ -9,7 +9,7 @@
 //! [`super::chart`]'s.
 
 use super::chart::{
-    FONT, LegendEntry, Line, Marker, PLOT_SIZE_PX, Scale, Style, draw_legend_beside, layout, write_svg_png,
+    LegendEntry, Line, Marker, PLOT_SIZE_PX, Scale, Style, draw_legend_beside, house_mesh, layout, write_svg_png,
 };
 use crate::error::{Error, Result};
 use plotters::coord::Shift;
@@ -277,17 +277,11 @@ fn draw<DB: DrawingBackend>(
         )?;
     let x_ticks = |v: &f64| tick_label(*v);
     let y_ticks = |v: &f64| tick_label(*v);
-    chart
-        .configure_mesh()
+    house_mesh(&mut chart.configure_mesh(), s)
         .x_desc(plot.x_label)
         .y_desc(plot.y_label)
         .x_label_formatter(&x_ticks)
         .y_label_formatter(&y_ticks)
-        .label_style((FONT, s.font(15.0)))
-        .axis_desc_style((FONT, s.font(17.0)))
-        .light_line_style(RGBColor(243, 243, 243).stroke_width(s.stroke(1.0)))
-        .bold_line_style(RGBColor(205, 205, 205).stroke_width(s.stroke(1.0)))
-        .axis_style(BLACK.stroke_width(s.stroke(1.0)))
         .draw()?;
 
     // Bands first, so that every line stays visible on top of them.
