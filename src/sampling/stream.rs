@@ -24,6 +24,10 @@ pub const IRRADIANCE_CACHE: u64 = 0x1CAC_4E00;
 pub const FIGURE: u64 = 0x1CF1_6000;
 /// Probe i of `bench map-error`: `[MAP_PROBE, i, 0]` ([`crate::experiment::map_error`]).
 pub const MAP_PROBE: u64 = 0x9_A0BE;
+/// Light path i of sample s of `light`: `[LIGHT_PATH, s, i]`.
+pub const LIGHT_PATH: u64 = 8;
+/// Pixel sample (eye and light sub-path) of pixel p, sample s of `bdpt`: `[BDPT, p, s]`.
+pub const BDPT: u64 = 9;
 
 #[cfg(test)]
 mod tests {
@@ -42,6 +46,8 @@ mod tests {
             IRRADIANCE_CACHE,
             FIGURE,
             MAP_PROBE,
+            LIGHT_PATH,
+            BDPT,
         ];
         let mut sorted = all.to_vec();
         sorted.sort_unstable();

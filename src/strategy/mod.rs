@@ -13,6 +13,8 @@
 //! [`crate::metropolis`], path space in [`crate::path_space`]), and anything about experiments,
 //! files or reports: a strategy fills a film and returns counters, phases and figures.
 
+pub mod bdpt;
+pub mod light;
 pub mod mlt;
 pub mod mps;
 pub mod path;

@@ -66,7 +66,10 @@ pub struct Registry {
 impl Registry {
     /// Every strategy of the crate.
     pub fn builtin() -> Self {
-        use super::{mlt::Mlt, mps::Mps, path::Path, photon_guided::PhotonGuided, photon_map::PhotonMapStrategy};
+        use super::{
+            bdpt::Bdpt, light::LightTracing, mlt::Mlt, mps::Mps, path::Path, photon_guided::PhotonGuided,
+            photon_map::PhotonMapStrategy,
+        };
         Self {
             entries: vec![
                 Registration::of::<Path>(),
@@ -74,6 +77,8 @@ impl Registry {
                 Registration::of::<PhotonMapStrategy>(),
                 Registration::of::<Mlt>(),
                 Registration::of::<Mps>(),
+                Registration::of::<LightTracing>(),
+                Registration::of::<Bdpt>(),
             ],
         }
     }

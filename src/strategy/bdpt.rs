@@ -1,0 +1,335 @@
+//! `kind = "bdpt"`: bidirectional path tracing with multiple importance sampling [Veach &
+//! Guibas 1995; Veach 1997, ch. 10]. Every pixel sample draws an eye sub-path z₀ (the pinhole),
+//! z₁ … and a light sub-path y₀ (on a light), y₁ …, and joins them in every way: for a path
+//! of k edges, the technique with s light vertices and t = k + 1 − s eye vertices,
+//! - s = 0: the eye sub-path hits a light;
+//! - s ≥ 1, t ≥ 2: y_{s−1} and z_{t−1} connected by a shadow ray (s = 1 is next-event
+//!   estimation);
+//! - t = 1: y_{s−1} connected to the pinhole and splatted where it lands (light tracing).
+//!
+//! **Weights** [Veach 1997, eq. (10.9) and §9.2]: the power heuristic over the techniques that
+//! could have made the path, w_s = p_s² / Σ_{s'} p_{s'}², with the densities of
+//! [`crate::path_space`]: p_s(X) = Π_{i<s} p_L(x_i) Π_{i=s}^{k−1} p_E(x_i), in f64. A technique
+//! counts when its connection edge joins two non-specular vertices (s' = 0 and the pinhole side
+//! of t = 1 always can). **Decision: the eye's first vertex is taken over the whole image**
+//! (p_E(x_{k−1}) = C / N for N pixels, as [`crate::path_space::pdf_eye_side`] has it): a pass
+//! makes one eye sample per pixel and N light sub-paths that all splat, so for any one pixel
+//! the light-tracing technique takes N samples to each eye technique's one, and N p_E is the
+//! per-pixel density; the N cancels in the balance of the weights. Each technique then adds
+//! w_s f(X) / (N p_s(X)) to its pixel.
+//!
+//! **Russian roulette** on each sub-path after `rr_depth` scattering events, with the
+//! survival probability of the throughput relative to the sub-path's first (eye: the camera
+//! ray's weight 1; light: the emitted flux), at most 0.95; contributions divide by the
+//! survival probabilities of the vertices they use, the weights ignore them (they still sum to
+//! one, so the estimator stays unbiased, as in pbrt).
+//!
+//! **Decision: MIS by recomputation.** Each connection rebuilds its path's 2k densities from
+//! the path-space functions the Metropolis strategies already test, instead of pbrt's cached
+//! forward/reverse densities: O(k) work per connection, simple to check against f and p; the
+//! figure `bench perf` reports says what it costs.
+
+use super::{Declared, Strategy};
+use crate::bsdf::TransportMode;
+use crate::error::Result;
+use crate::film::Film;
+use crate::params::{Params, Range};
+use crate::path_space::walk::{extend_light_side, join, trace, trace_from};
+use crate::path_space::{Vertex, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
+use crate::sampling::{Rng, stream};
+use crate::scene::Scene;
+use glam::{DVec3, Vec2, Vec3};
+use rayon::prelude::*;
+use std::ops::Range as Samples;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// Pixels per task: a fixed split, so that splats are summed in the same order on any number
+/// of threads.
+pub const CHUNK: usize = 256;
+
+crate::declare_params! {
+    /// Parameters of `kind = "bdpt"`.
+    pub struct BdptParams {
+        /// Maximum number of scattering events of a path (edges − 1), as `path`'s `max_depth`.
+        max_depth: u32 = 16, range Range::int(0, 1024);
+        /// Russian roulette on each sub-path starts after this many scattering events.
+        rr_depth: u32 = 3, range Range::int(0, 1024);
+    }
+}
+
+/// Bidirectional path tracing.
+pub struct Bdpt {
+    params: BdptParams,
+    samples: AtomicU64,
+    connections: AtomicU64,
+    splats: AtomicU64,
+}
+
+impl Declared for Bdpt {
+    const KIND: &'static str = "bdpt";
+    const SUMMARY: &'static str = "bidirectional path tracing, every (s, t) technique, power-heuristic MIS (Veach & Guibas 1995; Veach 1997, ch. 10)";
+    type Params = BdptParams;
+
+    fn new(params: BdptParams) -> Result<Self> {
+        Ok(Self {
+            params,
+            samples: AtomicU64::new(0),
+            connections: AtomicU64::new(0),
+            splats: AtomicU64::new(0),
+        })
+    }
+}
+
+/// A sub-path: its vertices and, per vertex, the probability that Russian roulette let the
+/// walk reach it (1 before `rr_depth`).
+#[derive(Default)]
+struct SubPath {
+    vertices: Vec<Vertex>,
+    survival: Vec<f64>,
+}
+
+impl SubPath {
+    fn push(&mut self, v: Vertex, survival: f64) {
+        self.vertices.push(v);
+        self.survival.push(survival);
+    }
+}
+
+/// Contributions to other pixels: (pixel index, value).
+type Splats = Vec<(u32, Vec3)>;
+
+/// What one pixel sample adds: to its own pixel, and splats anywhere.
+struct Sample {
+    own: Vec3,
+    splats: Splats,
+}
+
+impl Bdpt {
+    /// Survival probability after a vertex whose throughput is `now` against `first`: 1 before
+    /// `rr_depth` scattering events, else min(0.95, Y(now) / Y(first)).
+    fn survival(&self, events: usize, now: Vec3, first: Vec3) -> f64 {
+        if events < self.params.rr_depth as usize {
+            return 1.0;
+        }
+        let (y, y0) = (crate::color::luminance(now), crate::color::luminance(first));
+        if y0 > 0.0 {
+            (y / y0).clamp(0.0, 0.95) as f64
+        } else {
+            0.0
+        }
+    }
+
+    /// The eye sub-path through `raster`: z₀ the pinhole, then up to `max_depth + 1` surface
+    /// vertices. Throughput for roulette: the product of f_s |cos| / p_ω along the walk.
+    fn eye_subpath(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> SubPath {
+        let mut sub = SubPath::default();
+        sub.push(Vertex::eye(scene), 1.0);
+        let Some(z1) = trace(scene, &scene.camera.generate_ray(raster)) else {
+            return sub;
+        };
+        sub.push(z1, 1.0);
+        let (mut beta, mut q) = (Vec3::ONE, 1.0);
+        while sub.vertices.len() < self.params.max_depth as usize + 2 {
+            let n = sub.vertices.len();
+            let (v, from) = (sub.vertices[n - 1], sub.vertices[n - 2]);
+            let Some((d, weight)) = step_weight(scene, &v, &from, TransportMode::Radiance, rng) else {
+                break;
+            };
+            beta *= weight;
+            let survive = self.survival(n - 1, beta, Vec3::ONE);
+            if survive < 1.0 {
+                if rng.uniform() as f64 >= survive {
+                    break;
+                }
+                beta /= survive as f32;
+            }
+            q *= survive;
+            let Some(next) = trace_from(scene, &v, d) else { break };
+            sub.push(next, q);
+        }
+        sub
+    }
+
+    /// The light sub-path: y₀ on a light, then up to `max_depth` scattering vertices.
+    fn light_subpath(&self, scene: &Scene, rng: &mut Rng) -> SubPath {
+        let mut sub = SubPath::default();
+        let mut path = Vec::new();
+        if !extend_light_side(scene, &mut path, 2, rng) {
+            if let Some(&y0) = path.first() {
+                sub.push(y0, 1.0);
+            }
+            return sub;
+        }
+        sub.push(path[0], 1.0);
+        sub.push(path[1], 1.0);
+        let (mut beta, mut q) = (Vec3::ONE, 1.0);
+        while sub.vertices.len() < self.params.max_depth as usize + 1 {
+            let n = sub.vertices.len();
+            let (v, from) = (sub.vertices[n - 1], sub.vertices[n - 2]);
+            let Some((d, weight)) = step_weight(scene, &v, &from, TransportMode::Importance, rng) else {
+                break;
+            };
+            beta *= weight;
+            let survive = self.survival(n - 1, beta, Vec3::ONE);
+            if survive < 1.0 {
+                if rng.uniform() as f64 >= survive {
+                    break;
+                }
+                beta /= survive as f32;
+            }
+            q *= survive;
+            let Some(next) = trace_from(scene, &v, d) else { break };
+            sub.push(next, q);
+        }
+        sub
+    }
+
+    /// w_s f(X) / (N p_s(X)) of `path` made by the technique with `s` light vertices, and the
+    /// raster position of its last edge; `None` when it contributes nothing.
+    fn weighted(&self, scene: &Scene, path: &[Vertex], s: usize) -> Option<(Vec3, Vec2)> {
+        let (f, raster) = contribution(scene, path)?;
+        if f == Vec3::ZERO || !f.is_finite() {
+            return None;
+        }
+        let k = path.len() - 1;
+        if k > self.params.max_depth as usize + 1 {
+            return None;
+        }
+        let pl: Vec<f64> = (0..k).map(|i| pdf_light_side(scene, path, i) as f64).collect();
+        let pe: Vec<f64> = (0..k).map(|i| pdf_eye_side(scene, path, i) as f64).collect();
+        let p = |s: usize| -> f64 { pl[..s].iter().product::<f64>() * pe[s..].iter().product::<f64>() };
+        // Technique s' joins x_{s'−1} and x_{s'}: both must be non-specular (the pinhole and a
+        // hit of the eye walk on a light always may).
+        let valid = |s: usize| s == 0 || (path[s - 1].connectible() && (s == k || path[s].connectible()));
+        let ps = p(s);
+        if !(ps > 0.0 && ps.is_finite()) {
+            return None;
+        }
+        let sum: f64 = (0..=k).filter(|&s| valid(s)).map(|s| p(s).powi(2)).sum();
+        let n = scene.camera.pixel_count() as f64;
+        let value = f.as_dvec3() * (ps / (sum * n));
+        (value.is_finite()).then(|| (value.as_vec3(), raster))
+    }
+
+    /// Every technique of one pixel sample.
+    fn sample(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> Sample {
+        let eye = self.eye_subpath(scene, raster, rng);
+        let light = self.light_subpath(scene, rng);
+        let (z, y) = (&eye.vertices, &light.vertices);
+        let mut out = Sample {
+            own: Vec3::ZERO,
+            splats: Vec::new(),
+        };
+        // s = 0: the eye walk hits a light at z_{t−1}.
+        for t in 2..=z.len() {
+            if let Some(x0) = z[t - 1].as_light(scene) {
+                let mut path = vec![x0];
+                path.extend(z[..t - 1].iter().rev());
+                if let Some((v, _)) = self.weighted(scene, &path, 0) {
+                    out.own += v / eye.survival[t - 1] as f32;
+                }
+            }
+        }
+        for s in 1..=y.len() {
+            // t = 1: y_{s−1} to the pinhole, splatted.
+            if y[s - 1].connectible() && camera_factor(scene, &y[s - 1]).is_some() {
+                let path = join(&y[..s], &z[..1]);
+                self.connections.fetch_add(1, Relaxed);
+                if let Some((v, r)) = self.weighted(scene, &path, s)
+                    && visible(scene, &y[s - 1], &z[0])
+                {
+                    let cam = &scene.camera;
+                    let (px, py) = ((r.x as u32).min(cam.width - 1), (r.y as u32).min(cam.height - 1));
+                    out.splats.push((py * cam.width + px, v / light.survival[s - 1] as f32));
+                    self.splats.fetch_add(1, Relaxed);
+                }
+            }
+            // t ≥ 2: y_{s−1} to z_{t−1}.
+            for t in 2..=z.len() {
+                if !(y[s - 1].connectible() && z[t - 1].connectible()) {
+                    continue;
+                }
+                let path = join(&y[..s], &z[..t]);
+                self.connections.fetch_add(1, Relaxed);
+                if let Some((v, _)) = self.weighted(scene, &path, s)
+                    && visible(scene, &y[s - 1], &z[t - 1])
+                {
+                    out.own += v / (light.survival[s - 1] * eye.survival[t - 1]) as f32;
+                }
+            }
+        }
+        out
+    }
+}
+
+/// A BSDF-sampled direction at `v` (reached from `from`) in `mode`, as
+/// [`crate::path_space::walk::sample_direction`] draws it, with its weight f_s |cos θ| / p_ω
+/// (the lobe coefficient at a specular vertex) for roulette.
+fn step_weight(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rng: &mut Rng) -> Option<(Vec3, Vec3)> {
+    let wo = v.frame.to_local(direction(v, from).0);
+    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+    let s = v.bsdf(scene).sample(wo, u, u_lobe, mode)?;
+    if s.pdf_w <= 0.0 || s.f == Vec3::ZERO {
+        return None;
+    }
+    let wi = v.frame.to_world(s.wi);
+    if wi.dot(v.ng) * s.wi.z <= 0.0 {
+        return None;
+    }
+    let weight = if s.delta { s.f } else { s.f * s.wi.z.abs() / s.pdf_w };
+    Some((wi, weight))
+}
+
+impl Strategy for Bdpt {
+    fn kind(&self) -> &'static str {
+        Self::KIND
+    }
+
+    fn params(&self) -> Vec<(String, String)> {
+        self.params.columns()
+    }
+
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: Samples<u32>, film: &mut Film) {
+        let n = scene.camera.pixel_count();
+        let width = scene.camera.width as usize;
+        for s in samples {
+            let chunks: Vec<(Vec<Vec3>, Splats)> = (0..n.div_ceil(CHUNK))
+                .into_par_iter()
+                .map(|c| {
+                    let (mut own, mut splats) = (Vec::with_capacity(CHUNK), Vec::new());
+                    for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                        let mut rng = Rng::for_task(seed, [stream::BDPT, p as u64, s as u64]);
+                        let raster = Vec2::new((p % width) as f32, (p / width) as f32) + rng.uniform2();
+                        let sample = self.sample(scene, raster, &mut rng);
+                        own.push(sample.own);
+                        splats.extend(sample.splats);
+                    }
+                    (own, splats)
+                })
+                .collect();
+            self.samples.fetch_add(n as u64, Relaxed);
+            let mut image: Vec<DVec3> = Vec::with_capacity(n);
+            let mut all_splats = Vec::new();
+            for (own, splats) in chunks {
+                image.extend(own.iter().map(|v| v.as_dvec3()));
+                all_splats.extend(splats);
+            }
+            for (p, v) in all_splats {
+                image[p as usize] += v.as_dvec3();
+            }
+            film.rows_mut().for_each(|(y, row)| {
+                for (x, acc) in row.iter_mut().enumerate() {
+                    acc.add(image[y * width + x].as_vec3());
+                }
+            });
+        }
+    }
+
+    fn counters(&self) -> Vec<(String, f64)> {
+        vec![
+            ("pixel_samples".into(), self.samples.load(Relaxed) as f64),
+            ("connections".into(), self.connections.load(Relaxed) as f64),
+            ("splats".into(), self.splats.load(Relaxed) as f64),
+        ]
+    }
+}

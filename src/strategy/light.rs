@@ -1,0 +1,198 @@
+//! `kind = "light"`: light tracing — particle tracing from the lights with every non-specular
+//! vertex connected to the pinhole and splatted where it lands on the image [Veach 1997,
+//! §10.2, the s ≥ 1, t = 1 techniques; Arvo & Kirk 1990]. It is the estimator that sees
+//! caustics on diffuse surfaces directly, and the `t = 1` half of bidirectional path tracing.
+//!
+//! **Estimator.** A light sub-path x₀ … x_i is drawn with the area densities of
+//! [`crate::path_space::pdf_light_side`] (a light ∝ power, a point uniform on it, cosine
+//! emission, then BSDF sampling in importance mode). Its ratio
+//! A_i = Le(x₀→x₁) G(x₀,x₁) Π_{j=1}^{i−1} f_s(x_j) G(x_j,x_{j+1}) / Π_{j=0}^{i} p(x_j) is kept
+//! incrementally; joining x_i to the pinhole x_e gives the path X = (x₀ … x_i, x_e) with
+//! f(X) / p(X) = A_i f_s(x_{i−1}→x_i→x_e) C(x_i) [Veach 1997, eq. (10.8) with t = 1], where
+//! C = du/dA is the camera factor of [`crate::path_space::camera_factor`] (pixel area 1), and
+//! x₀ seen directly gives Le(x₀→x_e) C(x₀) / p(x₀). With N light paths, pixel j's value is
+//! (1/N) Σ of the f/p that land in it.
+//!
+//! **Decision: what a sample is.** One sample per pixel is N = (pixel count) light paths, so
+//! that `spp` costs about what it costs `path`; each sample's splats form one image, added to
+//! every pixel as one sample (like `mlt`). Paths run in fixed chunks of [`CHUNK`] with their own
+//! streams `[LIGHT_PATH, sample, path]`, summed in chunk order: bit-identical on any number of
+//! threads and however the samples are split into passes.
+//!
+//! **What it cannot see.** A path whose last scattering vertex before the eye is specular
+//! (E S … : a mirror or glass seen directly) has no connection to the pinhole, so light tracing
+//! leaves it out; scenes with directly visible specular surfaces render darker there (as in
+//! every light tracer; `bdpt` covers them with its other techniques).
+//!
+//! Russian roulette after `rr_depth` scattering events continues with q = min(0.95, Y(A_i) /
+//! Y(A_1)), the luminance of the throughput relative to what left the light.
+
+use super::{Declared, Strategy};
+use crate::error::Result;
+use crate::film::Film;
+use crate::params::{Params, Range};
+use crate::path_space::{
+    Vertex, camera_factor, emitted, geometry, pdf_light_side, scattering, visible,
+    walk::{extend_light_side, sample_light_vertex},
+};
+use crate::sampling::{Rng, stream};
+use crate::scene::Scene;
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use std::ops::Range as Samples;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+/// Light paths per task: a fixed split, so that the sum over paths is the same on any number
+/// of threads.
+pub const CHUNK: usize = 256;
+
+crate::declare_params! {
+    /// Parameters of `kind = "light"`.
+    pub struct LightParams {
+        /// Maximum number of scattering events of a path (light sub-path vertices after x₀), as
+        /// `path`'s `max_depth`; 0 shows only emitters seen directly.
+        max_depth: u32 = 16, range Range::int(0, 1024);
+        /// Russian roulette starts after this many scattering events.
+        rr_depth: u32 = 3, range Range::int(0, 1024);
+    }
+}
+
+/// The light tracer.
+pub struct LightTracing {
+    params: LightParams,
+    light_paths: AtomicU64,
+    connections: AtomicU64,
+    splats: AtomicU64,
+}
+
+impl Declared for LightTracing {
+    const KIND: &'static str = "light";
+    const SUMMARY: &'static str =
+        "light tracing: particles from the lights connected to the pinhole and splatted (Veach 1997, §10.2; Arvo & Kirk 1990)";
+    type Params = LightParams;
+
+    fn new(params: LightParams) -> Result<Self> {
+        Ok(Self {
+            params,
+            light_paths: AtomicU64::new(0),
+            connections: AtomicU64::new(0),
+            splats: AtomicU64::new(0),
+        })
+    }
+}
+
+/// One splat: pixel index and f/p.
+type Splat = (u32, Vec3);
+
+impl LightTracing {
+    /// f/p of joining the light sub-path `sub` (x₀ … x_i, with ratio `a` = A_i for i ≥ 1) to the
+    /// pinhole, and the pixel it lands in; `None` when it misses the image, is blocked, or
+    /// its last vertex is specular.
+    fn connect(&self, scene: &Scene, sub: &[Vertex], a: Vec3) -> Option<Splat> {
+        let x = sub.last()?;
+        if !x.connectible() {
+            return None;
+        }
+        let (raster, c) = camera_factor(scene, x)?;
+        let eye = Vertex::eye(scene);
+        self.connections.fetch_add(1, Relaxed);
+        let value = if sub.len() == 1 {
+            emitted(scene, &[*x, eye]) * c / pdf_light_side(scene, sub, 0)
+        } else {
+            let i = sub.len() - 1;
+            a * scattering(scene, &[sub[i - 1], *x, eye], 1) * c
+        };
+        if value == Vec3::ZERO || !value.is_finite() || !visible(scene, x, &eye) {
+            return None;
+        }
+        let cam = &scene.camera;
+        let (px, py) = (
+            (raster.x as u32).min(cam.width - 1),
+            (raster.y as u32).min(cam.height - 1),
+        );
+        self.splats.fetch_add(1, Relaxed);
+        Some((py * cam.width + px, value))
+    }
+
+    /// Traces one light path and pushes its splats.
+    fn trace(&self, scene: &Scene, rng: &mut Rng, out: &mut Vec<Splat>) {
+        let max_depth = self.params.max_depth as usize;
+        let mut sub = Vec::with_capacity(max_depth + 1);
+        sub.push(sample_light_vertex(scene, rng));
+        out.extend(self.connect(scene, &sub, Vec3::ZERO));
+        let mut a = Vec3::ZERO;
+        let mut a1_lum = 0.0;
+        for i in 1..=max_depth {
+            if !extend_light_side(scene, &mut sub, 1, rng) {
+                return;
+            }
+            // A_i from A_{i−1}: the new edge's geometry over the new vertex's density.
+            let p = pdf_light_side(scene, &sub, i);
+            a = if i == 1 {
+                emitted(scene, &sub) * geometry(&sub[0], &sub[1]) / (pdf_light_side(scene, &sub, 0) * p)
+            } else {
+                a * scattering(scene, &sub, i - 1) * geometry(&sub[i - 1], &sub[i]) / p
+            };
+            if !(a.is_finite() && p > 0.0) || a == Vec3::ZERO {
+                return;
+            }
+            if i == 1 {
+                a1_lum = crate::color::luminance(a);
+            }
+            out.extend(self.connect(scene, &sub, a));
+            if i >= self.params.rr_depth as usize {
+                let q = (crate::color::luminance(a) / a1_lum).clamp(0.0, 0.95);
+                if q.is_nan() || q <= 0.0 || rng.uniform() >= q {
+                    return;
+                }
+                a /= q;
+            }
+        }
+    }
+}
+
+impl Strategy for LightTracing {
+    fn kind(&self) -> &'static str {
+        Self::KIND
+    }
+
+    fn params(&self) -> Vec<(String, String)> {
+        self.params.columns()
+    }
+
+    fn render_pass(&self, scene: &Scene, seed: u64, samples: Samples<u32>, film: &mut Film) {
+        let n = scene.camera.pixel_count();
+        for s in samples {
+            let chunks: Vec<Vec<Splat>> = (0..n.div_ceil(CHUNK))
+                .into_par_iter()
+                .map(|c| {
+                    let mut out = Vec::new();
+                    for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                        let mut rng = Rng::for_task(seed, [stream::LIGHT_PATH, s as u64, i as u64]);
+                        self.trace(scene, &mut rng, &mut out);
+                    }
+                    out
+                })
+                .collect();
+            self.light_paths.fetch_add(n as u64, Relaxed);
+            let mut image = vec![DVec3::ZERO; n];
+            for (p, v) in chunks.into_iter().flatten() {
+                image[p as usize] += v.as_dvec3();
+            }
+            let width = scene.camera.width as usize;
+            film.rows_mut().for_each(|(y, row)| {
+                for (x, acc) in row.iter_mut().enumerate() {
+                    acc.add((image[y * width + x] / n as f64).as_vec3());
+                }
+            });
+        }
+    }
+
+    fn counters(&self) -> Vec<(String, f64)> {
+        vec![
+            ("light_paths".into(), self.light_paths.load(Relaxed) as f64),
+            ("eye_connections".into(), self.connections.load(Relaxed) as f64),
+            ("splats".into(), self.splats.load(Relaxed) as f64),
+        ]
+    }
+}
