@@ -67,8 +67,7 @@ pub struct LightTracing {
 
 impl Declared for LightTracing {
     const KIND: &'static str = "light";
-    const SUMMARY: &'static str =
-        "light tracing: particles from the lights connected to the pinhole and splatted (Veach 1997, §10.2; Arvo & Kirk 1990)";
+    const SUMMARY: &'static str = "light tracing: particles from the lights connected to the pinhole and splatted (Veach 1997, §10.2; Arvo & Kirk 1990)";
     type Params = LightParams;
 
     fn new(params: LightParams) -> Result<Self> {
