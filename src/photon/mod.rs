@@ -42,7 +42,7 @@ pub use estimate::{Estimate, EstimateParams, Filter};
 pub use irradiance::{IrradianceMap, precompute_irradiance};
 pub use kdtree::{KdPoint, KdTree, Neighbour};
 pub use record::{Photon, Rgbe, flags};
-pub use trace::{CausticStorage, TraceParams, TracedPhotons, trace_photons};
+pub use trace::{CausticStorage, PhotonHit, TraceParams, TracedPath, TracedPhotons, trace_photon_path, trace_photons};
 
 /// A photon map: photons sorted into a kd-tree for nearest-neighbour queries [Jensen 1996;
 /// Christensen 1999, §1.2]. The density estimates live in [`estimate`].

@@ -81,7 +81,18 @@ impl SceneBuilder {
     }
 
     pub fn build(self) -> Scene {
-        let camera = Camera::new(Vec3::new(0.5, 0.5, -1.0), Vec3::splat(0.5), Vec3::Y, 60.0, 8, 8);
+        self.build_with(Camera::new(
+            Vec3::new(0.5, 0.5, -1.0),
+            Vec3::splat(0.5),
+            Vec3::Y,
+            60.0,
+            8,
+            8,
+        ))
+    }
+
+    /// The scene, seen through `camera`.
+    pub fn build_with(self, camera: Camera) -> Scene {
         Scene::assemble(
             "photon-test".into(),
             "photon-test".into(),

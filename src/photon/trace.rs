@@ -182,7 +182,73 @@ struct Block {
 /// Traces photon path `index` and appends what it stores to `out`.
 fn trace_path(scene: &Scene, params: &TraceParams, seed: u64, index: u64, out: &mut Block) {
     let mut rng = Rng::for_task(seed, [stream::PHOTON_PATH, index, 0]);
+    let traced = trace_photon_path(scene, params.max_depth, params.photons, &mut rng, |hit| {
+        if hit.bounces == 0 && !params.store_direct {
+            return;
+        }
+        let caustic = hit.caustic();
+        let f = (if hit.bounces > 0 { flags::INDIRECT } else { 0 }) | (if caustic { flags::CAUSTIC } else { 0 });
+        let photon = Photon::new(hit.p, hit.power, hit.wi, hit.n, f);
+        match (caustic, params.caustics) {
+            (true, CausticStorage::Both) => {
+                out.caustic.push(photon);
+                out.global.push(photon);
+            }
+            (true, CausticStorage::Separate) => out.caustic.push(photon),
+            _ => out.global.push(photon),
+        }
+    });
+    out.emitted_power += traced.emitted_power.as_dvec3();
+    out.rays += traced.rays;
+}
 
+/// Where a photon path meets a surface with a diffuse component ([`SurfaceKind::Diffuse`]):
+/// the candidates for storage (module doc).
+#[derive(Clone, Copy, Debug)]
+pub struct PhotonHit {
+    pub p: Vec3,
+    /// Power on arrival, ΔΦ (full precision).
+    pub power: Vec3,
+    /// Unit direction towards where the photon came from.
+    pub wi: Vec3,
+    /// The shading normal turned to the side the photon arrived on.
+    pub n: Vec3,
+    /// Scattering events before this hit (0: straight from the light).
+    pub bounces: u32,
+    /// Every scattering event before this hit was on a delta lobe.
+    pub specular_only: bool,
+}
+
+impl PhotonHit {
+    /// A caustic photon: L S+ D.
+    #[inline]
+    pub fn caustic(&self) -> bool {
+        self.bounces > 0 && self.specular_only
+    }
+}
+
+/// What one traced photon path cost and carried.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TracedPath {
+    /// The photon's initial power, Φ_light / (p_light N).
+    pub emitted_power: Vec3,
+    /// Rays traced (closest-hit queries).
+    pub rays: u64,
+}
+
+/// Traces one photon path with the random numbers of `rng` — emission, scattering in
+/// importance mode and Russian roulette as in the module doc — as one of `emitted` photon
+/// paths (the N of ΔΦ = Φ_light / (p_light N)), and calls `store` at every hit on a surface
+/// with a diffuse component, whatever its bounce count: callers decide what to keep. At most
+/// `max_depth` scattering events.
+pub fn trace_photon_path(
+    scene: &Scene,
+    max_depth: u32,
+    emitted: u64,
+    rng: &mut Rng,
+    mut store: impl FnMut(&PhotonHit),
+) -> TracedPath {
+    let mut out = TracedPath::default();
     // Emission: light ∝ power, point uniform, direction cosine-weighted (module doc).
     let (light_index, pmf, _) = scene.light_selection.sample(rng.uniform());
     let light = &scene.lights[light_index];
@@ -194,10 +260,10 @@ fn trace_path(scene: &Scene, params: &TraceParams, seed: u64, index: u64, out: &
     }
     let local = sample_cosine_hemisphere(rng.uniform2());
     let dir = Frame::from_normal(n).to_world(local);
-    let mut power = light.power() / (pmf * params.photons as f32);
-    out.emitted_power += power.as_dvec3();
+    let mut power = light.power() / (pmf * emitted as f32);
+    out.emitted_power = power;
     if local.z <= 0.0 || !power.is_finite() {
-        return;
+        return out;
     }
     let mut ray = spawn_ray(lp.p, lp.n, dir);
 
@@ -210,26 +276,22 @@ fn trace_path(scene: &Scene, params: &TraceParams, seed: u64, index: u64, out: &
         let bsdf = scene.bsdf(&hit);
         let wi_world = -ray.d;
 
-        // Storage at diffuse surfaces.
-        if bsdf.kind() == SurfaceKind::Diffuse && (bounces > 0 || params.store_direct) {
-            let caustic = bounces > 0 && specular_only;
+        if bsdf.kind() == SurfaceKind::Diffuse {
             let n_side = if hit.ng.dot(wi_world) >= 0.0 {
                 hit.frame.n
             } else {
                 -hit.frame.n
             };
-            let f = (if bounces > 0 { flags::INDIRECT } else { 0 }) | (if caustic { flags::CAUSTIC } else { 0 });
-            let photon = Photon::new(hit.p, power, wi_world, n_side, f);
-            match (caustic, params.caustics) {
-                (true, CausticStorage::Both) => {
-                    out.caustic.push(photon);
-                    out.global.push(photon);
-                }
-                (true, CausticStorage::Separate) => out.caustic.push(photon),
-                _ => out.global.push(photon),
-            }
+            store(&PhotonHit {
+                p: hit.p,
+                power,
+                wi: wi_world,
+                n: n_side,
+                bounces,
+                specular_only,
+            });
         }
-        if bounces >= params.max_depth {
+        if bounces >= max_depth {
             break;
         }
 
@@ -267,6 +329,7 @@ fn trace_path(scene: &Scene, params: &TraceParams, seed: u64, index: u64, out: &
         bounces += 1;
         ray = spawn_ray(hit.p, hit.ng, wi_next);
     }
+    out
 }
 
 #[cfg(test)]

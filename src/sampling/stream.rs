@@ -28,6 +28,13 @@ pub const MAP_PROBE: u64 = 0x9_A0BE;
 pub const LIGHT_PATH: u64 = 8;
 /// Pixel sample (eye and light sub-path) of pixel p, sample s of `bdpt`: `[BDPT, p, s]`.
 pub const BDPT: u64 = 9;
+/// Eye path of pixel p in pass s of `sppm`, or hit point j of pixel p of `ppm`:
+/// `[PPM_EYE, p, s or j]`.
+pub const PPM_EYE: u64 = 10;
+/// Direct light of estimate slot i in pass s of `ppm` / `sppm`: `[PPM_DIRECT, i, s]`.
+pub const PPM_DIRECT: u64 = 11;
+/// Photon path i of pass s of `ppm` / `sppm`: `[PPM_PHOTON, i, s]`.
+pub const PPM_PHOTON: u64 = 12;
 
 #[cfg(test)]
 mod tests {
@@ -48,6 +55,9 @@ mod tests {
             MAP_PROBE,
             LIGHT_PATH,
             BDPT,
+            PPM_EYE,
+            PPM_DIRECT,
+            PPM_PHOTON,
         ];
         let mut sorted = all.to_vec();
         sorted.sort_unstable();

@@ -67,8 +67,14 @@ impl Registry {
     /// Every strategy of the crate.
     pub fn builtin() -> Self {
         use super::{
-            bdpt::Bdpt, light::LightTracing, mlt::Mlt, mps::Mps, path::Path, photon_guided::PhotonGuided,
+            bdpt::Bdpt,
+            light::LightTracing,
+            mlt::Mlt,
+            mps::Mps,
+            path::Path,
+            photon_guided::PhotonGuided,
             photon_map::PhotonMapStrategy,
+            ppm::{Ppm, Sppm},
         };
         Self {
             entries: vec![
@@ -79,6 +85,8 @@ impl Registry {
                 Registration::of::<Mps>(),
                 Registration::of::<LightTracing>(),
                 Registration::of::<Bdpt>(),
+                Registration::of::<Ppm>(),
+                Registration::of::<Sppm>(),
             ],
         }
     }

@@ -1,0 +1,152 @@
+use super::*;
+use crate::bsdf::{Bsdf, Mirror};
+use crate::photon::test_scenes::SceneBuilder;
+
+/// A closed unit box whose six faces all emit `le` inward and reflect with albedo `rho`, seen
+/// from inside: the radiance leaving every point is exactly Le / (1 − ρ). The 30° camera sees
+/// only the far wall, at least 0.25 from its edges, so every photon disc lies inside one face.
+fn emitting_box(rho: f32, mirror_sphere: bool) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.lambertian(Vec3::splat(rho));
+    let le = Some(Vec3::ONE);
+    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+    b.quad(Vec3::ZERO, z, x, m, le);
+    b.quad(y, x, z, m, le);
+    b.quad(Vec3::ZERO, y, z, m, le);
+    b.quad(x, z, y, m, le);
+    b.quad(Vec3::ZERO, x, y, m, le);
+    b.quad(z, y, x, m, le);
+    if mirror_sphere {
+        // A perfect mirror in the field of view: eye paths pass it by sampling, and in a
+        // furnace it changes nothing (it reflects all it receives). (A Phong lobe would not do:
+        // its energy below the horizon is lost.)
+        let g = b.material(Bsdf::Mirror(Mirror { reflectance: Vec3::ONE }));
+        b.sphere(Vec3::new(0.5, 0.5, 0.7), 0.08, g);
+    }
+    let camera = Camera::new(
+        Vec3::new(0.5, 0.5, 0.05),
+        Vec3::new(0.5, 0.5, 1.0),
+        Vec3::Y,
+        30.0,
+        16,
+        16,
+    );
+    b.build_with(camera)
+}
+
+fn table(text: &str) -> toml::Table {
+    toml::from_str(text).unwrap()
+}
+
+fn render_mean(scene: &Scene, kind: &str, params: &str, seed: u64, passes: u32) -> Vec3 {
+    let mut s = crate::strategy::build(kind, table(params)).unwrap();
+    s.prepare(scene, seed).unwrap();
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    s.render_pass(scene, seed, 0..passes, &mut film);
+    film.image().mean()
+}
+
+/// Both methods, with direct light from light sampling and from photons, converge to
+/// Le / (1 − ρ) in the emitting furnace: the mean over 6 seeds is within 5 standard errors of
+/// the exact value, and the standard error is below 1 %, so the test is sharp enough to see a
+/// missing π or an unscaled τ (which overshoots by the radius reduction, 2× after 12 passes).
+#[test]
+fn the_emitting_furnace_converges_to_le_over_one_minus_rho() {
+    let rho = 0.5f32;
+    let exact = 1.0 / (1.0 - rho as f64);
+    for (kind, params, mirror) in [
+        ("sppm", "photons_per_pass = 20000", false),
+        ("sppm", "photons_per_pass = 20000\ndirect = \"photons\"", true),
+        ("ppm", "photons_per_pass = 20000\neye_samples = 2", false),
+        ("ppm", "photons_per_pass = 20000\ndirect = \"nee\"", true),
+    ] {
+        let scene = emitting_box(rho, mirror);
+        let means: Vec<f64> = (0..6)
+            .map(|seed| crate::color::luminance(render_mean(&scene, kind, params, seed, 12)) as f64)
+            .collect();
+        let n = means.len() as f64;
+        let mean = means.iter().sum::<f64>() / n;
+        let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        let se = (var / n).sqrt();
+        let z = (mean - exact) / se;
+        assert!(se < 0.01 * exact, "{kind} [{params}]: standard error {se}");
+        assert!(
+            z.abs() < 5.0,
+            "{kind} [{params}]: {mean} vs {exact} (z = {z:.2}, means {means:?})"
+        );
+    }
+}
+
+/// The radius reduction of one slot: α M of the M new photons are kept, and the radius and the
+/// flux shrink by (N + α M) / (N + M), so that under a uniform photon density (M ∝ R²) the
+/// estimate τ / (k π R²) keeps its expected value while R → 0.
+#[test]
+fn a_uniform_density_keeps_its_estimate_while_the_radius_shrinks() {
+    // λ photons per unit area per pass, each depositing 1: Φ = M = λ π R² (fractions allowed
+    // here through the expected-value form of the update).
+    let lambda = 1.0e5f64;
+    let alpha = 0.7;
+    let mut slot = Slot {
+        r2: 0.01,
+        ..Slot::default()
+    };
+    let r2_start = slot.r2;
+    for k in 1..=200u32 {
+        let m = (lambda * std::f64::consts::PI * slot.r2).round() as u32;
+        slot.update(DVec3::splat(m as f64), m, alpha);
+        let estimate = slot.radiance(k as f64).x;
+        assert!((estimate / lambda - 1.0).abs() < 0.05, "pass {k}: {estimate}");
+    }
+    // R² falls like k^−(1−α) (Hachisuka et al. 2008, §4): 200^−0.3 ≈ 0.2.
+    assert!(
+        slot.r2 < 0.2 * r2_start,
+        "the radius must shrink: {} → {}",
+        r2_start,
+        slot.r2
+    );
+    let untouched = {
+        let mut s = slot;
+        s.update(DVec3::splat(5.0), 0, alpha);
+        s
+    };
+    assert_eq!((untouched.r2, untouched.n, untouched.tau), (slot.r2, slot.n, slot.tau));
+}
+
+/// The film's mean after each pass is the estimate of that many passes: the values handed to
+/// the film telescope, whatever the split into passes.
+#[test]
+fn the_film_mean_after_k_passes_is_the_k_pass_estimate() {
+    let scene = emitting_box(0.5, false);
+    let strategy = <Sppm as Declared>::new(SppmParams::from_table(table("photons_per_pass = 2000")).unwrap()).unwrap();
+    let mut film = Film::new(16, 16);
+    for k in 1..=5u32 {
+        strategy.render_pass(&scene, 3, k - 1..k, &mut film);
+        let progress = strategy.engine.progress.lock().unwrap();
+        let image = film.image();
+        for (pixel, slot) in progress.slots.iter().enumerate() {
+            let want = slot.radiance(k as f64);
+            let got = image.pixels[pixel].as_dvec3();
+            assert!(
+                ((got - want).abs() / want).max_element() < 1e-6,
+                "pass {k}, pixel {pixel}"
+            );
+        }
+        assert!(film.accumulators().iter().all(|a| a.count == k));
+    }
+}
+
+#[test]
+fn hostile_parameters_are_refused() {
+    for (kind, text) in [
+        ("sppm", "alpha = 0.0"),
+        ("sppm", "alpha = 1.5"),
+        ("ppm", "photons_per_pass = 0"),
+        ("ppm", "eye_samples = 0"),
+        ("sppm", "initial_radius = -1.0"),
+        ("sppm", "eye_samples = 2"),
+        ("ppm", "direct = \"mis\""),
+    ] {
+        let err = crate::strategy::build(kind, table(text)).err();
+        assert!(err.is_some(), "{kind}: `{text}` must be refused");
+    }
+}
