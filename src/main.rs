@@ -99,6 +99,18 @@ enum Command {
         /// build time and k-NN queries/s for N = 25 000 … 1 600 000 global photons).
         #[arg(long)]
         photon_scale: bool,
+        /// Instead: the throughput of these strategy kinds (comma-separated; every registered
+        /// kind when given alone) with default parameters, through the strategy trait:
+        /// preparation seconds, pixel samples/s (median and range of --repeats renders of
+        /// --samples spp) and every counter as a rate. With --csv, rows of their own columns.
+        #[arg(long, num_args = 0.., value_delimiter = ',')]
+        strategies: Option<Vec<String>>,
+        /// Samples per pixel of each timed render of --strategies.
+        #[arg(long, default_value_t = 1)]
+        samples: u32,
+        /// Timed renders per strategy of --strategies (median and range are reported).
+        #[arg(long, default_value_t = 5)]
+        repeats: u32,
     },
     /// Measure each photon-map strategy's map where its final gather reads it: RMS relative
     /// error against path-traced radiance at gather-ray hits, for every scene, strategy and
@@ -341,11 +353,60 @@ fn run_command(command: Command) -> Result<Status> {
             max_depth,
             csv,
             photon_scale,
+            strategies,
+            samples,
+            repeats,
         } => {
             if spp == 0 || spp > 1 << 16 {
                 return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 16)));
             }
+            if samples == 0 || samples > 1 << 16 {
+                return Err(Error::new(format!("--samples: expected 1..={}, got {samples}", 1 << 16)));
+            }
+            if repeats == 0 || repeats > 1000 {
+                return Err(Error::new(format!("--repeats: expected 1..=1000, got {repeats}")));
+            }
             let scene = load_scene(&scene)?;
+            if let Some(kinds) = strategies {
+                let registry = photon_bench::strategy::Registry::builtin();
+                for kind in &kinds {
+                    registry.get(kind).map_err(|e| Error::new(format!("--strategies: {e}")))?;
+                }
+                let rows = photon_bench::perf::measure_strategies(&scene, &registry, &kinds, samples, repeats)?;
+                let Some(first) = rows.first() else {
+                    return Ok(Status::Success);
+                };
+                println!(
+                    "{} {}x{}, {} spp per render, {} renders per strategy, {} threads ({}), git {}",
+                    first.scene,
+                    first.width,
+                    first.height,
+                    samples,
+                    repeats,
+                    first.threads,
+                    first.cpu,
+                    first.git_revision
+                );
+                println!(
+                    "  {:<14} {:>10}  {:>16}  {:>23}  counters per second",
+                    "strategy", "prepare s", "pixel samples/s", "range"
+                );
+                for r in &rows {
+                    println!(
+                        "  {:<14} {:>10.3}  {:>16.0}  {:>11.0}–{:<11.0}  {}",
+                        r.strategy,
+                        r.prepare_s,
+                        r.pixel_samples_per_s,
+                        r.pixel_samples_per_s_min,
+                        r.pixel_samples_per_s_max,
+                        r.counters_per_s.replace(';', "  ")
+                    );
+                }
+                if let Some(path) = csv {
+                    photon_bench::perf::append_csv(&rows, &path)?;
+                }
+                return Ok(Status::Success);
+            }
             if photon_scale {
                 let sizes = [25_000, 50_000, 100_000, 200_000, 400_000, 500_000, 800_000, 1_600_000];
                 let points = photon_bench::perf::measure_photon_scale(&scene, &sizes, 100_000);

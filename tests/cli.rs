@@ -1072,3 +1072,51 @@ fn walk(root: &Path) -> Vec<PathBuf> {
     out.sort();
     out
 }
+
+/// `bench perf --strategies` measures every registered strategy through the strategy trait:
+/// one table row and one CSV row each, positive finite rates with a range around the median,
+/// and each strategy's own counters as rates; an unknown kind is refused in one line.
+#[test]
+fn perf_measures_every_registered_strategy() {
+    let dir = project();
+    let root = dir.path();
+    let o = bench(
+        root,
+        &[
+            "perf",
+            "--scene",
+            "scenes/tiny.toml",
+            "--strategies",
+            "--repeats",
+            "3",
+            "--csv",
+            "perf.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let kinds = photon_bench::strategy::kinds();
+    let mut reader = csv::Reader::from_path(root.join("perf.csv")).unwrap();
+    let headers = reader.headers().unwrap().clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+    assert_eq!(rows.len(), kinds.len());
+    for (row, kind) in rows.iter().zip(&kinds) {
+        assert_eq!(&row[col("strategy")], *kind);
+        assert!(stdout.lines().any(|l| l.trim_start().starts_with(kind)), "{kind} in {stdout}");
+        let rate = |c: &str| row[col(c)].parse::<f64>().unwrap();
+        let (median, lo, hi) = (
+            rate("pixel_samples_per_s"),
+            rate("pixel_samples_per_s_min"),
+            rate("pixel_samples_per_s_max"),
+        );
+        assert!(median.is_finite() && lo > 0.0 && lo <= median && median <= hi, "{kind}: {lo} {median} {hi}");
+        assert_eq!(&row[col("repeats")], "3");
+    }
+    let counters = |kind: &str| rows[kinds.iter().position(|k| *k == kind).unwrap()][col("counters_per_s")].to_string();
+    assert!(counters("light").contains("light_paths="), "{}", counters("light"));
+    assert!(counters("sppm").contains("photon_paths="), "{}", counters("sppm"));
+
+    let o = bench(root, &["perf", "--scene", "scenes/tiny.toml", "--strategies", "path,nope"]);
+    assert_refused(&o, &["--strategies", "unknown strategy kind `nope`", "bdpt"]);
+}

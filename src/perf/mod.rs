@@ -6,7 +6,12 @@
 //!   shading, no sampling), the ceiling the path tracer could reach.
 //!
 //! Ray counts come from replaying the identical samples (same seeds) with a recording tally,
-//! so the timed run carries no counting overhead.
+//! so the timed run carries no counting overhead. [`strategies`] measures every registered
+//! strategy through the strategy trait (`bench perf --strategies`).
+
+pub mod strategies;
+
+pub use strategies::{StrategyThroughput, measure_strategies};
 
 use crate::geometry::Ray;
 use crate::sampling::Rng;
