@@ -361,7 +361,10 @@ fn run_command(command: Command) -> Result<Status> {
                 return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 16)));
             }
             if samples == 0 || samples > 1 << 16 {
-                return Err(Error::new(format!("--samples: expected 1..={}, got {samples}", 1 << 16)));
+                return Err(Error::new(format!(
+                    "--samples: expected 1..={}, got {samples}",
+                    1 << 16
+                )));
             }
             if repeats == 0 || repeats > 1000 {
                 return Err(Error::new(format!("--repeats: expected 1..=1000, got {repeats}")));
@@ -370,7 +373,9 @@ fn run_command(command: Command) -> Result<Status> {
             if let Some(kinds) = strategies {
                 let registry = photon_bench::strategy::Registry::builtin();
                 for kind in &kinds {
-                    registry.get(kind).map_err(|e| Error::new(format!("--strategies: {e}")))?;
+                    registry
+                        .get(kind)
+                        .map_err(|e| Error::new(format!("--strategies: {e}")))?;
                 }
                 let rows = photon_bench::perf::measure_strategies(&scene, &registry, &kinds, samples, repeats)?;
                 let Some(first) = rows.first() else {

@@ -1103,20 +1103,29 @@ fn perf_measures_every_registered_strategy() {
     assert_eq!(rows.len(), kinds.len());
     for (row, kind) in rows.iter().zip(&kinds) {
         assert_eq!(&row[col("strategy")], *kind);
-        assert!(stdout.lines().any(|l| l.trim_start().starts_with(kind)), "{kind} in {stdout}");
+        assert!(
+            stdout.lines().any(|l| l.trim_start().starts_with(kind)),
+            "{kind} in {stdout}"
+        );
         let rate = |c: &str| row[col(c)].parse::<f64>().unwrap();
         let (median, lo, hi) = (
             rate("pixel_samples_per_s"),
             rate("pixel_samples_per_s_min"),
             rate("pixel_samples_per_s_max"),
         );
-        assert!(median.is_finite() && lo > 0.0 && lo <= median && median <= hi, "{kind}: {lo} {median} {hi}");
+        assert!(
+            median.is_finite() && lo > 0.0 && lo <= median && median <= hi,
+            "{kind}: {lo} {median} {hi}"
+        );
         assert_eq!(&row[col("repeats")], "3");
     }
     let counters = |kind: &str| rows[kinds.iter().position(|k| *k == kind).unwrap()][col("counters_per_s")].to_string();
     assert!(counters("light").contains("light_paths="), "{}", counters("light"));
     assert!(counters("sppm").contains("photon_paths="), "{}", counters("sppm"));
 
-    let o = bench(root, &["perf", "--scene", "scenes/tiny.toml", "--strategies", "path,nope"]);
+    let o = bench(
+        root,
+        &["perf", "--scene", "scenes/tiny.toml", "--strategies", "path,nope"],
+    );
     assert_refused(&o, &["--strategies", "unknown strategy kind `nope`", "bdpt"]);
 }
