@@ -1,4 +1,4 @@
-//! The consistent strategies (`ppm`, `sppm`) must converge: their error against a path-traced
+//! The consistent strategies (`ppm`, `sppm`, `vcm`) must converge: their error against a path-traced
 //! reference falls as passes grow, and the image mean approaches the reference's — on a
 //! diffuse scene, on one with caustics and glass (cornell-spheres) and on one with glossy
 //! surfaces the eye paths pass through (cornell-glossy).
@@ -67,14 +67,14 @@ fn mean_luminance(image: &Image) -> f64 {
         / n
 }
 
-/// `sppm` against a 4096-spp path reference, after 4, 16 and 64 passes, summed over two seeds
+/// `sppm` and `vcm` (and its merging-only mode) against a 4096-spp path reference, after 4, 16 and 64 passes, summed over two seeds
 /// (block MSE, the reference's own noise subtracted; means below the first block row): the
 /// error must fall by 2.5× or more from 4 to 64 passes (the method's error falls roughly like
 /// k^−2/3, so 16× the passes give about 6×, less where the bias of blurring a caustic or a
 /// glossy lobe dominates), and after 64 passes the image mean must be within 2 % of the
 /// reference's. With direct light from light sampling and from photons.
 #[test]
-fn sppm_converges_to_the_path_traced_reference() {
+fn sppm_and_vcm_converge_to_the_path_traced_reference() {
     let checkpoints = [4, 16, 64];
     for (file, resolution) in [
         ("scenes/cornell-empty.toml", "[24, 24]"),
@@ -85,18 +85,25 @@ fn sppm_converges_to_the_path_traced_reference() {
         let reference = progressive(&scene, "path", "", 1, &[4096]).remove(0);
         let other = progressive(&scene, "path", "", 2, &[4096]).remove(0);
         let noise = block_mse(&reference, &other) / 2.0;
-        for params in ["", "direct = \"photons\""] {
-            let params = format!("initial_radius = 0.015\nphotons_per_pass = 10000\n{params}");
+        for (kind, params) in [
+            ("sppm", "initial_radius = 0.015\nphotons_per_pass = 10000"),
+            (
+                "sppm",
+                "initial_radius = 0.015\nphotons_per_pass = 10000\ndirect = \"photons\"",
+            ),
+            ("vcm", ""),
+            ("vcm", "mode = \"ppm\"\nradius_factor = 0.01"),
+        ] {
             let mut errors = [-2.0 * noise; 3];
             let mut last_mean = 0.0;
             for seed in [11, 12] {
-                let images = progressive(&scene, "sppm", &params, seed, &checkpoints);
+                let images = progressive(&scene, kind, params, seed, &checkpoints);
                 for (e, image) in errors.iter_mut().zip(&images) {
                     *e += block_mse(image, &reference);
                 }
                 last_mean += mean_luminance(&images[2]) / 2.0;
             }
-            let what = format!("{file}: sppm [{}]", params.replace('\n', ", "));
+            let what = format!("{file}: {kind} [{}]", params.replace('\n', ", "));
             assert!(
                 errors[0] > 2.5 * errors[2],
                 "{what}: MSE after 4, 16, 64 passes {errors:?} (reference noise {noise})"

@@ -107,6 +107,38 @@ impl SceneBuilder {
     }
 }
 
+/// A closed unit box whose six faces all emit `le` inward and reflect with albedo `rho`, seen
+/// from inside: the radiance leaving every point is exactly Le / (1 − ρ). The 30° camera sees
+/// only the far wall, at least 0.25 from its edges, so every photon disc lies inside one face.
+pub fn emitting_box(rho: f32, mirror_sphere: bool) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.lambertian(Vec3::splat(rho));
+    let le = Some(Vec3::ONE);
+    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+    b.quad(Vec3::ZERO, z, x, m, le);
+    b.quad(y, x, z, m, le);
+    b.quad(Vec3::ZERO, y, z, m, le);
+    b.quad(x, z, y, m, le);
+    b.quad(Vec3::ZERO, x, y, m, le);
+    b.quad(z, y, x, m, le);
+    if mirror_sphere {
+        // A perfect mirror in the field of view: eye paths pass it by sampling, and in a
+        // furnace it changes nothing (it reflects all it receives). (A Phong lobe would not do:
+        // its energy below the horizon is lost.)
+        let g = b.material(Bsdf::Mirror(crate::bsdf::Mirror { reflectance: Vec3::ONE }));
+        b.sphere(Vec3::new(0.5, 0.5, 0.7), 0.08, g);
+    }
+    let camera = Camera::new(
+        Vec3::new(0.5, 0.5, 0.05),
+        Vec3::new(0.5, 0.5, 1.0),
+        Vec3::Y,
+        30.0,
+        16,
+        16,
+    );
+    b.build_with(camera)
+}
+
 /// Exact irradiance at `x` (unit normal `n`) from a planar polygon of constant radiance `le`
 /// facing `x` and entirely above its horizon (Lambert's formula, see Arvo 1995, "Applications
 /// of Irradiance Tensors"): E = Le/2 · |Σ_i Θ_i n · (v_i × v_{i+1}) / |v_i × v_{i+1}||, with v_i

@@ -35,6 +35,10 @@ pub const PPM_EYE: u64 = 10;
 pub const PPM_DIRECT: u64 = 11;
 /// Photon path i of pass s of `ppm` / `sppm`: `[PPM_PHOTON, i, s]`.
 pub const PPM_PHOTON: u64 = 12;
+/// Light sub-path j of pass s of `vcm`: `[VCM_LIGHT, s, j]`.
+pub const VCM_LIGHT: u64 = 13;
+/// Eye sub-path of pixel p in pass s of `vcm`: `[VCM_EYE, p, s]`.
+pub const VCM_EYE: u64 = 14;
 
 #[cfg(test)]
 mod tests {
@@ -58,6 +62,8 @@ mod tests {
             PPM_EYE,
             PPM_DIRECT,
             PPM_PHOTON,
+            VCM_LIGHT,
+            VCM_EYE,
         ];
         let mut sorted = all.to_vec();
         sorted.sort_unstable();

@@ -82,10 +82,10 @@ impl Declared for Bdpt {
 
 /// A sub-path: its vertices and, per vertex, the probability that Russian roulette let the
 /// walk reach it (1 before `rr_depth`).
-#[derive(Default)]
-struct SubPath {
-    vertices: Vec<Vertex>,
-    survival: Vec<f64>,
+#[derive(Clone, Default)]
+pub(super) struct SubPath {
+    pub(super) vertices: Vec<Vertex>,
+    pub(super) survival: Vec<f64>,
 }
 
 impl SubPath {
@@ -96,12 +96,21 @@ impl SubPath {
 }
 
 /// Contributions to other pixels: (pixel index, value).
-type Splats = Vec<(u32, Vec3)>;
+pub(super) type Splats = Vec<(u32, Vec3)>;
 
 /// What one pixel sample adds: to its own pixel, and splats anywhere.
-struct Sample {
-    own: Vec3,
-    splats: Splats,
+pub(super) struct Sample {
+    pub(super) own: Vec3,
+    pub(super) splats: Splats,
+}
+
+/// A technique that can make a path of k edges: a connection with s light vertices
+/// (0 ≤ s ≤ k), or vertex merging at x_m (1 ≤ m ≤ k − 1, the light side reaching x_m and the
+/// eye side reaching it too, joined by a density-estimation kernel: `vcm`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Technique {
+    Connect(usize),
+    Merge(usize),
 }
 
 impl Bdpt {
@@ -121,7 +130,7 @@ impl Bdpt {
 
     /// The eye sub-path through `raster`: z₀ the pinhole, then up to `max_depth + 1` surface
     /// vertices. Throughput for roulette: the product of f_s |cos| / p_ω along the walk.
-    fn eye_subpath(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> SubPath {
+    pub(super) fn eye_subpath(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> SubPath {
         let mut sub = SubPath::default();
         sub.push(Vertex::eye(scene), 1.0);
         let Some(z1) = trace(scene, &scene.camera.generate_ray(raster)) else {
@@ -151,7 +160,7 @@ impl Bdpt {
     }
 
     /// The light sub-path: y₀ on a light, then up to `max_depth` scattering vertices.
-    fn light_subpath(&self, scene: &Scene, rng: &mut Rng) -> SubPath {
+    pub(super) fn light_subpath(&self, scene: &Scene, rng: &mut Rng) -> SubPath {
         let mut sub = SubPath::default();
         let mut path = Vec::new();
         if !extend_light_side(scene, &mut path, 2, rng) {
@@ -185,12 +194,36 @@ impl Bdpt {
     }
 
     /// w_s f(X) / (N p_s(X)) of `path` made by the technique with `s` light vertices, and the
-    /// raster position of its last edge; `None` when it contributes nothing.
-    fn weighted(&self, scene: &Scene, path: &[Vertex], s: usize) -> Option<(Vec3, Vec2)> {
+    /// raster position of its last edge; `None` when it contributes nothing. With `eta`
+    /// (η = N_VM π r², `vcm`), vertex merging competes in the weights ([`Bdpt::mis_weight`]).
+    fn weighted(&self, scene: &Scene, path: &[Vertex], s: usize, eta: Option<f64>) -> Option<(Vec3, Vec2)> {
         let (f, raster) = contribution(scene, path)?;
         if f == Vec3::ZERO || !f.is_finite() {
             return None;
         }
+        let (ps, sum) = self.mis_weight(scene, path, Technique::Connect(s), eta)?;
+        let n = scene.camera.pixel_count() as f64;
+        // w_s / (N p_s) = p_s / (N Σ p²).
+        let value = f.as_dvec3() * (ps / (sum * n));
+        (value.is_finite()).then(|| (value.as_vec3(), raster))
+    }
+
+    /// The density of `technique` for `path` and the sum of the squared densities of every
+    /// technique that could have made it: (p, Σ p²), the power-heuristic weight being p² / Σ. The
+    /// densities, in f64: p_s(X) = Π_{i<s} p_L(x_i) Π_{i=s}^{k−1} p_E(x_i) for a connection,
+    /// and with `eta`, merging at x_m: p_VM,m(X) = η p_L(x_m) p_m(X) [Georgiev et al. 2012,
+    /// eq. (13); Hachisuka et al. 2012], x_m sampled by both sides and accepted within
+    /// the kernel's disc π r², by any of the N_VM light sub-paths of the pass. A connection
+    /// counts when it joins two non-specular vertices (s' = 0 and the pinhole side of t = 1
+    /// always can); merging needs a non-specular x_m. `None` for paths longer than `max_depth`
+    /// or of zero density.
+    pub(super) fn mis_weight(
+        &self,
+        scene: &Scene,
+        path: &[Vertex],
+        technique: Technique,
+        eta: Option<f64>,
+    ) -> Option<(f64, f64)> {
         let k = path.len() - 1;
         if k > self.params.max_depth as usize + 1 {
             return None;
@@ -201,20 +234,35 @@ impl Bdpt {
         // Technique s' joins x_{s'−1} and x_{s'}: both must be non-specular (the pinhole and a
         // hit of the eye walk on a light always may).
         let valid = |s: usize| s == 0 || (path[s - 1].connectible() && (s == k || path[s].connectible()));
-        let ps = p(s);
-        if !(ps > 0.0 && ps.is_finite()) {
+        let p_merge = |m: usize, eta: f64| eta * pl[m] * p(m);
+        let can_merge = |m: usize| m >= 1 && m < k && path[m].is_surface() && path[m].connectible();
+        let pt = match technique {
+            Technique::Connect(s) => p(s),
+            Technique::Merge(m) => p_merge(m, eta?),
+        };
+        if !(pt > 0.0 && pt.is_finite()) {
             return None;
         }
-        let sum: f64 = (0..=k).filter(|&s| valid(s)).map(|s| p(s).powi(2)).sum();
-        let n = scene.camera.pixel_count() as f64;
-        let value = f.as_dvec3() * (ps / (sum * n));
-        (value.is_finite()).then(|| (value.as_vec3(), raster))
+        let mut sum: f64 = (0..=k).filter(|&s| valid(s)).map(|s| p(s).powi(2)).sum();
+        if let Some(eta) = eta {
+            sum += (1..k)
+                .filter(|&m| can_merge(m))
+                .map(|m| p_merge(m, eta).powi(2))
+                .sum::<f64>();
+        }
+        Some((pt, sum))
     }
 
     /// Every technique of one pixel sample.
     fn sample(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> Sample {
         let eye = self.eye_subpath(scene, raster, rng);
         let light = self.light_subpath(scene, rng);
+        self.connect_all(scene, &eye, &light, None)
+    }
+
+    /// Every connection technique (s = 0, t = 1, s ≥ 1 with t ≥ 2) between one eye and one
+    /// light sub-path, weighted with merging in the weights when `eta` is given (`vcm`).
+    pub(super) fn connect_all(&self, scene: &Scene, eye: &SubPath, light: &SubPath, eta: Option<f64>) -> Sample {
         let (z, y) = (&eye.vertices, &light.vertices);
         let mut out = Sample {
             own: Vec3::ZERO,
@@ -225,7 +273,7 @@ impl Bdpt {
             if let Some(x0) = z[t - 1].as_light(scene) {
                 let mut path = vec![x0];
                 path.extend(z[..t - 1].iter().rev());
-                if let Some((v, _)) = self.weighted(scene, &path, 0) {
+                if let Some((v, _)) = self.weighted(scene, &path, 0, eta) {
                     out.own += v / eye.survival[t - 1] as f32;
                 }
             }
@@ -235,7 +283,7 @@ impl Bdpt {
             if y[s - 1].connectible() && camera_factor(scene, &y[s - 1]).is_some() {
                 let path = join(&y[..s], &z[..1]);
                 self.connections.fetch_add(1, Relaxed);
-                if let Some((v, r)) = self.weighted(scene, &path, s)
+                if let Some((v, r)) = self.weighted(scene, &path, s, eta)
                     && visible(scene, &y[s - 1], &z[0])
                 {
                     let cam = &scene.camera;
@@ -251,7 +299,7 @@ impl Bdpt {
                 }
                 let path = join(&y[..s], &z[..t]);
                 self.connections.fetch_add(1, Relaxed);
-                if let Some((v, _)) = self.weighted(scene, &path, s)
+                if let Some((v, _)) = self.weighted(scene, &path, s, eta)
                     && visible(scene, &y[s - 1], &z[t - 1])
                 {
                     out.own += v / (light.survival[s - 1] * eye.survival[t - 1]) as f32;
@@ -260,6 +308,40 @@ impl Bdpt {
         }
         out
     }
+}
+
+/// One sample of every pixel: `sample(p)` for pixel p gives its own value and splats
+/// anywhere. Pixels run in fixed chunks of [`CHUNK`] and splats are summed in chunk order, so
+/// the image is bit-identical on any number of threads.
+pub(super) fn pixel_pass(scene: &Scene, film: &mut Film, sample: impl Fn(usize) -> Sample + Sync) {
+    let n = scene.camera.pixel_count();
+    let width = scene.camera.width as usize;
+    let chunks: Vec<(Vec<Vec3>, Splats)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (mut own, mut splats) = (Vec::with_capacity(CHUNK), Vec::new());
+            for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let s = sample(p);
+                own.push(s.own);
+                splats.extend(s.splats);
+            }
+            (own, splats)
+        })
+        .collect();
+    let mut image: Vec<DVec3> = Vec::with_capacity(n);
+    let mut all_splats = Vec::new();
+    for (own, splats) in chunks {
+        image.extend(own.iter().map(|v| v.as_dvec3()));
+        all_splats.extend(splats);
+    }
+    for (p, v) in all_splats {
+        image[p as usize] += v.as_dvec3();
+    }
+    film.rows_mut().for_each(|(y, row)| {
+        for (x, acc) in row.iter_mut().enumerate() {
+            acc.add(image[y * width + x].as_vec3());
+        }
+    });
 }
 
 /// A BSDF-sampled direction at `v` (reached from `from`) in `mode`, as
@@ -293,35 +375,12 @@ impl Strategy for Bdpt {
         let n = scene.camera.pixel_count();
         let width = scene.camera.width as usize;
         for s in samples {
-            let chunks: Vec<(Vec<Vec3>, Splats)> = (0..n.div_ceil(CHUNK))
-                .into_par_iter()
-                .map(|c| {
-                    let (mut own, mut splats) = (Vec::with_capacity(CHUNK), Vec::new());
-                    for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                        let mut rng = Rng::for_task(seed, [stream::BDPT, p as u64, s as u64]);
-                        let raster = Vec2::new((p % width) as f32, (p / width) as f32) + rng.uniform2();
-                        let sample = self.sample(scene, raster, &mut rng);
-                        own.push(sample.own);
-                        splats.extend(sample.splats);
-                    }
-                    (own, splats)
-                })
-                .collect();
-            self.samples.fetch_add(n as u64, Relaxed);
-            let mut image: Vec<DVec3> = Vec::with_capacity(n);
-            let mut all_splats = Vec::new();
-            for (own, splats) in chunks {
-                image.extend(own.iter().map(|v| v.as_dvec3()));
-                all_splats.extend(splats);
-            }
-            for (p, v) in all_splats {
-                image[p as usize] += v.as_dvec3();
-            }
-            film.rows_mut().for_each(|(y, row)| {
-                for (x, acc) in row.iter_mut().enumerate() {
-                    acc.add(image[y * width + x].as_vec3());
-                }
+            pixel_pass(scene, film, |p| {
+                let mut rng = Rng::for_task(seed, [stream::BDPT, p as u64, s as u64]);
+                let raster = Vec2::new((p % width) as f32, (p / width) as f32) + rng.uniform2();
+                self.sample(scene, raster, &mut rng)
             });
+            self.samples.fetch_add(n as u64, Relaxed);
         }
     }
 

@@ -22,6 +22,7 @@ pub mod photon_guided;
 pub mod photon_map;
 pub mod ppm;
 pub mod registry;
+pub mod vcm;
 
 pub use crate::figure::Figure;
 pub use path::Path;

@@ -75,6 +75,7 @@ impl Registry {
             photon_guided::PhotonGuided,
             photon_map::PhotonMapStrategy,
             ppm::{Ppm, Sppm},
+            vcm::Vcm,
         };
         Self {
             entries: vec![
@@ -87,6 +88,7 @@ impl Registry {
                 Registration::of::<Bdpt>(),
                 Registration::of::<Ppm>(),
                 Registration::of::<Sppm>(),
+                Registration::of::<Vcm>(),
             ],
         }
     }
