@@ -39,6 +39,8 @@ pub const PPM_PHOTON: u64 = 12;
 pub const VCM_LIGHT: u64 = 13;
 /// Eye sub-path of pixel p in pass s of `vcm`: `[VCM_EYE, p, s]`.
 pub const VCM_EYE: u64 = 14;
+/// Training sample i (counted over all iterations) of pixel p of `ppg`: `[PPG_TRAIN, p, i]`.
+pub const PPG_TRAIN: u64 = 15;
 
 #[cfg(test)]
 mod tests {
@@ -64,6 +66,7 @@ mod tests {
             PPM_PHOTON,
             VCM_LIGHT,
             VCM_EYE,
+            PPG_TRAIN,
         ];
         let mut sorted = all.to_vec();
         sorted.sort_unstable();

@@ -20,6 +20,7 @@ pub mod mps;
 pub mod path;
 pub mod photon_guided;
 pub mod photon_map;
+pub mod ppg;
 pub mod ppm;
 pub mod registry;
 pub mod vcm;

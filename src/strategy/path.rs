@@ -126,10 +126,23 @@ impl Strategy for Path {
     }
 }
 
-/// Receives every ray a path traces.
+/// Receives every ray a path traces, and (for learning methods such as practical path
+/// guiding) every scattering event and every contribution.
 pub trait RayTally {
     fn closest(&mut self, ray: &Ray);
     fn shadow(&mut self, ray: &Ray);
+    /// A direction `wi` (world) was sampled at `p` with solid-angle pdf `pdf_w` (a lobe
+    /// probability when `delta`); `beta` is the path throughput after this vertex's weight,
+    /// before Russian roulette.
+    #[inline(always)]
+    fn scattered(&mut self, p: Vec3, wi: Vec3, pdf_w: f32, beta: Vec3, delta: bool) {
+        let _ = (p, wi, pdf_w, beta, delta);
+    }
+    /// `l` (throughput and MIS weight included) was added to the path's estimate.
+    #[inline(always)]
+    fn contributed(&mut self, l: Vec3) {
+        let _ = l;
+    }
 }
 
 impl RayTally for () {
@@ -353,6 +366,7 @@ pub fn trace<S: DirectionSampler>(
                     power_heuristic(prev_pdf_w, pdf_light_w)
                 };
                 l += beta * le * weight;
+                tally.contributed(beta * le * weight);
             }
         }
         if depth >= params.max_depth {
@@ -370,7 +384,7 @@ pub fn trace<S: DirectionSampler>(
         if let Some(lights) = &lights {
             let light_choice = (lights, &weights);
             let direct = params.direct;
-            l += beta
+            let ld = beta
                 * estimate_direct(
                     scene,
                     &hit,
@@ -382,6 +396,8 @@ pub fn trace<S: DirectionSampler>(
                     (sampler, &vertex),
                     tally,
                 );
+            l += ld;
+            tally.contributed(ld);
         }
 
         let Some(s) = sampler.sample(&vertex, bsdf, wo, rng) else {
@@ -394,6 +410,7 @@ pub fn trace<S: DirectionSampler>(
             break;
         }
         beta *= s.f * (s.wi.z.abs() / s.pdf_w);
+        tally.scattered(hit.p, wi, s.pdf_w, beta, s.delta);
         prev_pdf_w = s.pdf_w;
         prev_specular = s.delta;
         prev_lights = lights;

@@ -74,6 +74,7 @@ impl Registry {
             path::Path,
             photon_guided::PhotonGuided,
             photon_map::PhotonMapStrategy,
+            ppg::Ppg,
             ppm::{Ppm, Sppm},
             vcm::Vcm,
         };
@@ -89,6 +90,7 @@ impl Registry {
                 Registration::of::<Ppm>(),
                 Registration::of::<Sppm>(),
                 Registration::of::<Vcm>(),
+                Registration::of::<Ppg>(),
             ],
         }
     }
