@@ -120,7 +120,8 @@ fn vertex_connection_and_merging_agrees_with_path_region_by_region() {
 }
 
 /// Practical path guiding is unbiased as long as the BSDF keeps a share of the mixture: region
-/// by region it agrees with `path`, with the paper's mixture and with a guide-heavy one, on a
+/// by region it agrees with `path`, with the paper's mixture and iterations combined by inverse
+/// variance, and with a guide-heavy mixture and the last iteration only, on a
 /// scene lit indirectly, one with specular spheres and one with glossy surfaces. A spatial
 /// threshold below the paper's gives these small images a real S-tree to guide with.
 #[test]
@@ -142,7 +143,7 @@ fn practical_path_guiding_agrees_with_path_region_by_region() {
             &s,
             file,
             "ppg",
-            "training_iterations = 4\nspatial_threshold = 500.0\nbsdf_fraction = 0.25",
+            "training_iterations = 4\nspatial_threshold = 500.0\nbsdf_fraction = 0.25\ncombine = \"last\"",
             16,
         );
     }

@@ -96,19 +96,29 @@ pub fn render_pixels<F>(scene: &Scene, seed: u64, samples: Range<u32>, film: &mu
 where
     F: Fn(&Ray, &mut Rng) -> Vec3 + Sync,
 {
-    let cam = &scene.camera;
-    let width = cam.width as usize;
+    let width = scene.camera.width as usize;
     film.rows_mut().for_each(|(y, row)| {
         for (x, acc) in row.iter_mut().enumerate() {
-            let pixel = (y * width + x) as u64;
             for s in samples.clone() {
-                let mut rng = Rng::for_task(seed, [stream::CAMERA_PATH, pixel, s as u64]);
-                let raster = Vec2::new(x as f32, y as f32) + rng.uniform2();
-                let ray = cam.generate_ray(raster);
-                acc.add(radiance(&ray, &mut rng));
+                acc.add(pixel_sample(scene, seed, y * width + x, s, &radiance));
             }
         }
     });
+}
+
+/// Sample `s` of pixel `pixel` as [`render_pixels`] takes it: a camera ray through a jittered
+/// point of the pixel, with the stream `[CAMERA_PATH, pixel, s]`.
+#[inline]
+pub fn pixel_sample<F>(scene: &Scene, seed: u64, pixel: usize, s: u32, radiance: &F) -> Vec3
+where
+    F: Fn(&Ray, &mut Rng) -> Vec3,
+{
+    let cam = &scene.camera;
+    let width = cam.width as usize;
+    let mut rng = Rng::for_task(seed, [stream::CAMERA_PATH, pixel as u64, s as u64]);
+    let raster = Vec2::new((pixel % width) as f32, (pixel / width) as f32) + rng.uniform2();
+    let ray = cam.generate_ray(raster);
+    radiance(&ray, &mut rng)
 }
 
 /// Builds a strategy of the crate from its kind and parameter table (without `kind` and

@@ -110,3 +110,68 @@ fn training_builds_a_tree_and_counts_its_work() {
     assert!(counters["training_records"] > counters["training_paths"]);
     assert!(counters["stree_leaves"] > 1.0 && counters["dtree_nodes"] > counters["stree_leaves"]);
 }
+
+/// With `combine = "inverse_variance"` the film's mean after each pass is the combination of
+/// the training images and the final render by the weights of [`Ppg::weights`], and the final
+/// render's weight comes to dominate; with `"last"` it is the plain mean.
+#[test]
+fn the_film_holds_the_inverse_variance_combination() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-empty.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("resolution = [80, 60]", "resolution = [16, 12]");
+    let (scene, _) = crate::scene::load::load_scene_bytes(&path, text.as_bytes()).unwrap();
+    let build = |combine: &str| {
+        let table = toml::from_str(&format!("training_iterations = 4\ncombine = \"{combine}\"")).unwrap();
+        let mut s = <Ppg as Declared>::new(PpgParams::from_table(table).unwrap()).unwrap();
+        s.prepare(&scene, 4).unwrap();
+        s
+    };
+    let s = build("inverse_variance");
+    assert_eq!(s.iterations.len(), 4);
+    assert!(s.iterations[0].variance().is_none() && s.iterations[3].variance().is_some());
+    let mut film = Film::new(16, 12);
+    let mut final_weights = Vec::new();
+    for (start, end) in [(0u32, 1u32), (1, 3), (3, 6)] {
+        s.render_pass(&scene, 4, start..end, &mut film);
+        let state = s.last.lock().unwrap();
+        let w = s.weights(&state.moments);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-9 && w[0] == 0.0);
+        final_weights.push(*w.last().unwrap());
+        let image = film.image();
+        for (p, got) in image.pixels.iter().enumerate() {
+            let mut want = state.moments.mean(p) * w[4];
+            for (m, wi) in s.iterations.iter().zip(&w) {
+                want += m.mean(p) * *wi;
+            }
+            let err = (got.as_dvec3() - want).abs().max_element();
+            assert!(
+                err <= 1e-5 * (1.0 + want.max_element()),
+                "pixel {p} after {end}: {got} vs {want}"
+            );
+        }
+        assert!(film.accumulators().iter().all(|a| a.count == end));
+    }
+    // The final render's weight grows with its samples (in expectation: small-sample variance
+    // estimates are noisy): after 64 final samples against 15 of training it dominates.
+    s.render_pass(&scene, 4, 6..64, &mut film);
+    let w_final = *s.weights(&s.last.lock().unwrap().moments).last().unwrap();
+    assert!(
+        w_final > 0.5 && w_final > final_weights[0],
+        "{final_weights:?} → {w_final}"
+    );
+
+    let last = build("last");
+    assert!(last.iterations.is_empty());
+    let mut a = Film::new(16, 12);
+    last.render_pass(&scene, 4, 0..3, &mut a);
+    let mut b = Film::new(16, 12);
+    render_pixels(&scene, 4, 0..3, &mut b, |ray, rng| {
+        let guide = Guide {
+            tree: last.tree.as_ref().unwrap(),
+            alpha: 0.5,
+        };
+        trace(&scene, &last.walk(), &guide, *ray, rng, &mut ())
+    });
+    assert_eq!(a.image(), b.image());
+}
