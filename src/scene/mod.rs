@@ -241,6 +241,21 @@ impl Scene {
         (l != u32::MAX).then_some(l as usize)
     }
 
+    /// The bounding box of every primitive (lower, upper corner); the unit cube for a scene
+    /// without primitives.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for prim in &self.primitives {
+            let (a, b) = match *prim {
+                Primitive::Triangle(v) => (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2])),
+                Primitive::Sphere { center, radius } => (center - radius, center + radius),
+            };
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        if lo.x > hi.x { (Vec3::ZERO, Vec3::ONE) } else { (lo, hi) }
+    }
+
     /// Total emitted power of all lights, per channel.
     pub fn total_power(&self) -> Vec3 {
         self.lights.iter().map(|l| l.power()).sum()

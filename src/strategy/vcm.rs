@@ -36,7 +36,6 @@ use super::bdpt::{Bdpt, BdptParams, Sample, SubPath, Technique, pixel_pass};
 use super::{Declared, Strategy};
 use crate::error::Result;
 use crate::film::Film;
-use crate::geometry::Primitive;
 use crate::params::{Params, Range};
 use crate::path_space::{
     Vertex, camera_factor, emitted, geometry, light_throughput, pdf_eye_side, pdf_light_side, scattering,
@@ -128,15 +127,7 @@ impl Declared for Vcm {
 
 /// Radius of a sphere around the bounding box of every primitive.
 fn bounding_radius(scene: &Scene) -> f64 {
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for prim in &scene.primitives {
-        let (a, b) = match *prim {
-            Primitive::Triangle(v) => (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2])),
-            Primitive::Sphere { center, radius } => (center - radius, center + radius),
-        };
-        lo = lo.min(a);
-        hi = hi.max(b);
-    }
+    let (lo, hi) = scene.bounds();
     let r = 0.5 * (hi - lo).length() as f64;
     if r.is_finite() && r > 0.0 { r } else { 1.0 }
 }

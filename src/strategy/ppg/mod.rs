@@ -45,7 +45,7 @@ use super::{Declared, Phase, Strategy, pixel_sample, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::error::Result;
 use crate::film::Film;
-use crate::geometry::{Frame, Primitive, Ray};
+use crate::geometry::{Frame, Ray};
 use crate::light::LightSampling;
 use crate::params::{Params, Range};
 use crate::sampling::{Rng, stream};
@@ -325,20 +325,6 @@ impl Ppg {
     }
 }
 
-/// The bounding box of every primitive.
-fn scene_bounds(scene: &Scene) -> (Vec3, Vec3) {
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for prim in &scene.primitives {
-        let (a, b) = match *prim {
-            Primitive::Triangle(v) => (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2])),
-            Primitive::Sphere { center, radius } => (center - radius, center + radius),
-        };
-        lo = lo.min(a);
-        hi = hi.max(b);
-    }
-    if lo.x > hi.x { (Vec3::ZERO, Vec3::ONE) } else { (lo, hi) }
-}
-
 impl Strategy for Ppg {
     fn kind(&self) -> &'static str {
         Self::KIND
@@ -350,7 +336,7 @@ impl Strategy for Ppg {
 
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
         let start = Instant::now();
-        let (lo, hi) = scene_bounds(scene);
+        let (lo, hi) = scene.bounds();
         self.tree = Some(SdTree::new(lo, hi));
         self.iterations.clear();
         *self.last.get_mut().unwrap() = Final::default();

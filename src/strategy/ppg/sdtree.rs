@@ -331,6 +331,52 @@ impl SdTree {
     }
 }
 
+/// Chi-square test of a sampler of directions against its solid-angle pdf, over a 16 × 16 grid
+/// of the cylindrical square (cells of equal solid angle), the pdf integrated over each cell by
+/// 8 × 8 midpoints: the expected counts must sum to the samples drawn (the pdf integrates to 1
+/// within 2 %) and χ² must stay within 5 standard deviations of its degrees of freedom.
+/// `sample` returning `None` is a rejected sample (it counts towards `n`).
+#[cfg(test)]
+pub(crate) fn assert_samples_pdf(n: usize, mut sample: impl FnMut() -> Option<Vec3>, pdf: impl Fn(Vec3) -> f32) {
+    let cells = 16usize;
+    let mut counts = vec![0f64; cells * cells];
+    for _ in 0..n {
+        let Some(d) = sample() else { continue };
+        let p = dir_to_square(d);
+        let (x, y) = (
+            ((p.x * cells as f32) as usize).min(cells - 1),
+            ((p.y * cells as f32) as usize).min(cells - 1),
+        );
+        counts[y * cells + x] += 1.0;
+    }
+    let (mut chi2, mut dof, mut total) = (0.0, 0, 0.0);
+    for y in 0..cells {
+        for x in 0..cells {
+            let mut p = 0.0f64;
+            for j in 0..8 {
+                for i in 0..8 {
+                    let uv = Vec2::new(
+                        (x as f32 + (i as f32 + 0.5) / 8.0) / cells as f32,
+                        (y as f32 + (j as f32 + 0.5) / 8.0) / cells as f32,
+                    );
+                    p += pdf(square_to_dir(uv)) as f64;
+                }
+            }
+            // Each cell is 4π / cells² of solid angle.
+            let p = p / 64.0 * 4.0 * std::f64::consts::PI / (cells * cells) as f64;
+            total += p;
+            let expected = p * n as f64;
+            if expected > 5.0 {
+                chi2 += (counts[y * cells + x] - expected).powi(2) / expected;
+                dof += 1;
+            }
+        }
+    }
+    assert!((total - 1.0).abs() < 0.02, "the pdf integrates to {total}");
+    let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
+    assert!(chi2 < limit, "chi2 {chi2} over {dof} cells (limit {limit})");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -369,46 +415,7 @@ mod tests {
             "refinement must build a deep tree: {}",
             tree.node_count()
         );
-        let cells = 16usize;
-        let n = 200_000usize;
-        let mut counts = vec![0f64; cells * cells];
-        for _ in 0..n {
-            let d = tree.sample(|| rng.uniform());
-            let p = dir_to_square(d);
-            let (x, y) = (
-                ((p.x * cells as f32) as usize).min(cells - 1),
-                ((p.y * cells as f32) as usize).min(cells - 1),
-            );
-            counts[y * cells + x] += 1.0;
-        }
-        let mut chi2 = 0.0;
-        let mut dof = 0;
-        let mut total_p = 0.0;
-        for y in 0..cells {
-            for x in 0..cells {
-                let mut p = 0.0f64;
-                for j in 0..8 {
-                    for i in 0..8 {
-                        let uv = Vec2::new(
-                            (x as f32 + (i as f32 + 0.5) / 8.0) / cells as f32,
-                            (y as f32 + (j as f32 + 0.5) / 8.0) / cells as f32,
-                        );
-                        p += tree.pdf(square_to_dir(uv)) as f64 * 4.0 * std::f64::consts::PI / 64.0;
-                    }
-                }
-                p /= (cells * cells) as f64;
-                total_p += p;
-                let expected = p * n as f64;
-                if expected > 5.0 {
-                    chi2 += (counts[y * cells + x] - expected).powi(2) / expected;
-                    dof += 1;
-                }
-            }
-        }
-        assert!((total_p - 1.0).abs() < 0.02, "the pdf integrates to {total_p}");
-        // χ² with ~dof degrees of freedom: mean dof, sd √(2 dof); 5 sd.
-        let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-        assert!(chi2 < limit, "chi2 {chi2} over {dof} cells (limit {limit})");
+        assert_samples_pdf(200_000, || Some(tree.sample(|| rng.uniform())), |d| tree.pdf(d));
     }
 
     #[test]

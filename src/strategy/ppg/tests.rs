@@ -1,6 +1,6 @@
 use super::*;
 use crate::bsdf::Lambertian;
-use sdtree::{dir_to_square, square_to_dir};
+use sdtree::square_to_dir;
 
 /// The BSDF/guide mixture must sample what its pdf says: chi-square of 200 000 directions at a
 /// Lambertian vertex with a trained D-tree (a lobe towards the upper left and a weak floor
@@ -31,49 +31,11 @@ fn the_mixture_samples_its_pdf() {
     let frame = Frame::from_normal(Vec3::new(0.2, 0.1, 1.0).normalize());
     let v = Some((0u32, frame));
     let wo = Vec3::new(0.3, 0.0, 0.95).normalize();
-    let (cells, n) = (16usize, 200_000usize);
-    let mut counts = vec![0f64; cells * cells];
-    for _ in 0..n {
-        let Some(s) = guide.sample(&v, &bsdf, wo, &mut rng) else {
-            continue;
-        };
-        let p = dir_to_square(frame.to_world(s.wi));
-        let (x, y) = (
-            ((p.x * cells as f32) as usize).min(cells - 1),
-            ((p.y * cells as f32) as usize).min(cells - 1),
-        );
-        counts[y * cells + x] += 1.0;
-    }
-    let (mut chi2, mut dof, mut total) = (0.0, 0, 0.0);
-    for y in 0..cells {
-        for x in 0..cells {
-            let mut p = 0.0f64;
-            for j in 0..8 {
-                for i in 0..8 {
-                    let uv = Vec2::new(
-                        (x as f32 + (i as f32 + 0.5) / 8.0) / cells as f32,
-                        (y as f32 + (j as f32 + 0.5) / 8.0) / cells as f32,
-                    );
-                    let wi = frame.to_local(square_to_dir(uv));
-                    p += guide.pdf(&v, &bsdf, wo, wi) as f64;
-                }
-            }
-            // Each cell is 4π / cells² of solid angle.
-            let expected = p / 64.0 * 4.0 * std::f64::consts::PI / (cells * cells) as f64 * n as f64;
-            total += expected;
-            if expected > 5.0 {
-                chi2 += (counts[y * cells + x] - expected).powi(2) / expected;
-                dof += 1;
-            }
-        }
-    }
-    assert!(
-        (total / n as f64 - 1.0).abs() < 0.02,
-        "the pdf integrates to {}",
-        total / n as f64
+    sdtree::assert_samples_pdf(
+        200_000,
+        || guide.sample(&v, &bsdf, wo, &mut rng).map(|s| frame.to_world(s.wi)),
+        |d| guide.pdf(&v, &bsdf, wo, frame.to_local(d)),
     );
-    let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-    assert!(chi2 < limit, "chi2 {chi2} over {dof} cells (limit {limit})");
 }
 
 #[test]
