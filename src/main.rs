@@ -105,9 +105,20 @@ enum Command {
         /// --samples spp) and every counter as a rate. With --csv, rows of their own columns.
         #[arg(long, num_args = 0.., value_delimiter = ',')]
         strategies: Option<Vec<String>>,
-        /// Samples per pixel of each timed render of --strategies.
+        /// Instead: the throughput of every strategy of this experiment file (labels and
+        /// parameters as written) on each of its scenes, as --strategies measures it, plus a
+        /// machine calibration row; its budgets are not used. The perf suite is
+        /// experiments/perf.toml; compare two such --csv files with `bench compare --perf`.
+        #[arg(long, conflicts_with_all = ["strategies", "photon_scale"])]
+        experiment: Option<PathBuf>,
+        /// With --strategies or --experiment: divide each scene's image width and height by
+        /// this (same camera and field of view), so that costly strategies time in seconds.
         #[arg(long, default_value_t = 1)]
-        samples: u32,
+        downscale: u32,
+        /// Samples per pixel of each timed render of --strategies (default 1) or --experiment
+        /// (default: each strategy's largest `spp` checkpoint).
+        #[arg(long)]
+        samples: Option<u32>,
         /// Timed renders per strategy of --strategies (median and range are reported).
         #[arg(long, default_value_t = 5)]
         repeats: u32,
@@ -138,12 +149,17 @@ enum Command {
         metrics: Vec<String>,
     },
     /// Compare a candidate run with a baseline run: exit status 1 on a significant error
-    /// regression, 0 otherwise, 2 on bad input.
+    /// regression (with --perf: a slowdown beyond the measured noise), 0 otherwise, 2 on bad
+    /// input.
     Compare {
-        /// The baseline run directory, e.g. results/baseline.
+        /// The baseline run directory, e.g. results/baseline (with --perf: a perf CSV, e.g.
+        /// results/baseline/perf.csv).
         baseline: PathBuf,
-        /// The candidate run directory, e.g. results/ci/<run-id>.
+        /// The candidate run directory, e.g. results/ci/<run-id> (with --perf: a perf CSV).
         candidate: PathBuf,
+        /// Compare speed: two CSV files of `bench perf --experiment … --csv`.
+        #[arg(long)]
+        perf: bool,
     },
     /// List the strategies with every parameter's default (as TOML an experiment file takes),
     /// range and meaning, and the shipped scenes.
@@ -254,7 +270,27 @@ fn run(cli: Cli) -> Result<Status> {
 
 fn run_command(command: Command) -> Result<Status> {
     match command {
-        Command::Compare { baseline, candidate } => {
+        Command::Compare {
+            baseline,
+            candidate,
+            perf: true,
+        } => {
+            use photon_bench::perf::compare;
+            let (base, cand) = (compare::read_csv(&baseline)?, compare::read_csv(&candidate)?);
+            let comparison = compare::compare(&base, &cand)
+                .map_err(|e| e.context(format!("{} vs {}", baseline.display(), candidate.display())))?;
+            print!("{}", compare::table(&comparison));
+            Ok(if comparison.slowdowns() > 0 {
+                Status::Regression
+            } else {
+                Status::Success
+            })
+        }
+        Command::Compare {
+            baseline,
+            candidate,
+            perf: false,
+        } => {
             let read = |dir: &PathBuf| {
                 let csv = dir.join("metrics.csv");
                 if !csv.is_file() {
@@ -354,13 +390,18 @@ fn run_command(command: Command) -> Result<Status> {
             csv,
             photon_scale,
             strategies,
+            experiment,
+            downscale,
             samples,
             repeats,
         } => {
+            if downscale == 0 || downscale > 1 << 12 {
+                return Err(Error::new(format!("--downscale: expected 1..=4096, got {downscale}")));
+            }
             if spp == 0 || spp > 1 << 16 {
                 return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 16)));
             }
-            if samples == 0 || samples > 1 << 16 {
+            if let Some(samples @ (0 | 65537..)) = samples {
                 return Err(Error::new(format!(
                     "--samples: expected 1..={}, got {samples}",
                     1 << 16
@@ -369,44 +410,32 @@ fn run_command(command: Command) -> Result<Status> {
             if repeats == 0 || repeats > 1000 {
                 return Err(Error::new(format!("--repeats: expected 1..=1000, got {repeats}")));
             }
-            let scene = load_scene(&scene)?;
+            if let Some(file) = experiment {
+                let exp = Experiment::load(&file)?;
+                let bar = indicatif::ProgressBar::new_spinner();
+                let rows =
+                    photon_bench::perf::measure_experiment(&exp, downscale, samples, repeats, &mut |scene, label| {
+                        bar.set_message(format!("{scene} / {label}"))
+                    })?;
+                bar.finish_and_clear();
+                print_throughputs(&rows, repeats);
+                if let Some(path) = csv {
+                    photon_bench::perf::append_csv(&rows, &path)?;
+                }
+                return Ok(Status::Success);
+            }
+            let mut scene = load_scene(&scene)?;
             if let Some(kinds) = strategies {
+                photon_bench::perf::strategies::downscale(&mut scene, downscale);
                 let registry = photon_bench::strategy::Registry::builtin();
                 for kind in &kinds {
                     registry
                         .get(kind)
                         .map_err(|e| Error::new(format!("--strategies: {e}")))?;
                 }
-                let rows = photon_bench::perf::measure_strategies(&scene, &registry, &kinds, samples, repeats)?;
-                let Some(first) = rows.first() else {
-                    return Ok(Status::Success);
-                };
-                println!(
-                    "{} {}x{}, {} spp per render, {} renders per strategy, {} threads ({}), git {}",
-                    first.scene,
-                    first.width,
-                    first.height,
-                    samples,
-                    repeats,
-                    first.threads,
-                    first.cpu,
-                    first.git_revision
-                );
-                println!(
-                    "  {:<14} {:>10}  {:>16}  {:>23}  counters per second",
-                    "strategy", "prepare s", "pixel samples/s", "range"
-                );
-                for r in &rows {
-                    println!(
-                        "  {:<14} {:>10.3}  {:>16.0}  {:>11.0}–{:<11.0}  {}",
-                        r.strategy,
-                        r.prepare_s,
-                        r.pixel_samples_per_s,
-                        r.pixel_samples_per_s_min,
-                        r.pixel_samples_per_s_max,
-                        r.counters_per_s.replace(';', "  ")
-                    );
-                }
+                let rows =
+                    photon_bench::perf::measure_strategies(&scene, &registry, &kinds, samples.unwrap_or(1), repeats)?;
+                print_throughputs(&rows, repeats);
                 if let Some(path) = csv {
                     photon_bench::perf::append_csv(&rows, &path)?;
                 }
@@ -580,4 +609,36 @@ fn run_command(command: Command) -> Result<Status> {
 /// Parses a snake_case enum value the way experiment files spell it.
 fn parse_enum<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -> Result<T> {
     T::deserialize(toml::Value::String(value.to_string())).map_err(|e| Error::new(format!("{flag}: {}", e.message())))
+}
+
+/// The table of `bench perf --strategies` / `--experiment`: one line per case, grouped by scene.
+fn print_throughputs(rows: &[photon_bench::perf::StrategyThroughput], repeats: u32) {
+    let Some(first) = rows.first() else {
+        return;
+    };
+    println!(
+        "{} prepare + render repeats per case, {} threads ({}), git {}",
+        repeats, first.threads, first.cpu, first.git_revision
+    );
+    let mut scene = "";
+    for r in rows {
+        if r.scene != scene {
+            scene = &r.scene;
+            println!("{} {}x{}", r.scene, r.width, r.height);
+            println!(
+                "  {:<26} {:>5} {:>10}  {:>16}  {:>23}  counters per second",
+                "strategy", "spp", "prepare s", "pixel samples/s", "range"
+            );
+        }
+        println!(
+            "  {:<26} {:>5} {:>10.3}  {:>16.0}  {:>11.0}–{:<11.0}  {}",
+            r.label,
+            r.samples,
+            r.prepare_s,
+            r.pixel_samples_per_s,
+            r.pixel_samples_per_s_min,
+            r.pixel_samples_per_s_max,
+            r.counters_per_s.replace(';', "  ")
+        );
+    }
 }

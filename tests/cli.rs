@@ -1100,7 +1100,12 @@ fn perf_measures_every_registered_strategy() {
     let headers = reader.headers().unwrap().clone();
     let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
     let rows: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
-    assert_eq!(rows.len(), kinds.len());
+    assert_eq!(
+        rows.len(),
+        kinds.len() + 1,
+        "a row per kind and the machine calibration"
+    );
+    assert_eq!(&rows[kinds.len()][col("label")], "machine-calibration");
     for (row, kind) in rows.iter().zip(&kinds) {
         assert_eq!(&row[col("strategy")], *kind);
         assert!(
@@ -1128,4 +1133,79 @@ fn perf_measures_every_registered_strategy() {
         &["perf", "--scene", "scenes/tiny.toml", "--strategies", "path,nope"],
     );
     assert_refused(&o, &["--strategies", "unknown strategy kind `nope`", "bdpt"]);
+}
+
+/// The perf suite round trip: `bench perf --experiment` measures an experiment's labelled
+/// strategies at their own `spp`; `bench compare --perf` finds nothing against the same run,
+/// flags (exit 1) a case made slower than its measured spread allows, and refuses a file that
+/// is not a perf CSV in one line.
+#[test]
+fn perf_suite_measures_an_experiment_and_compare_flags_a_slowdown() {
+    let dir = project();
+    let root = dir.path();
+    let suite = "scenes = [\"../scenes/tiny.toml\"]\nspp = [1, 4]\nseeds = 1\n\
+        [[strategy]]\nkind = \"path\"\nspp = [4]\n\
+        [[strategy]]\nkind = \"light\"\nlabel = \"light-rr0\"\nrr_depth = 0\nspp = [1]\n";
+    std::fs::write(root.join("experiments/suite.toml"), suite).unwrap();
+    let o = bench(
+        root,
+        &[
+            "perf",
+            "--experiment",
+            "experiments/suite.toml",
+            "--repeats",
+            "3",
+            "--csv",
+            "base.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(root.join("base.csv")).unwrap();
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let headers = reader.headers().unwrap().clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+    let cells: Vec<(&str, &str, &str)> = rows
+        .iter()
+        .map(|r| (&r[col("label")], &r[col("samples")], &r[col("params")]))
+        .collect();
+    assert_eq!(
+        cells,
+        [
+            ("path", "4", "{}"),
+            ("light-rr0", "1", "{ rr_depth = 0 }"),
+            ("machine-calibration", "0", "{}")
+        ]
+    );
+
+    let o = bench(root, &["compare", "--perf", "base.csv", "base.csv"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 slower"));
+
+    // The candidate: `path` renders at a third of the baseline's rate (min, median, max).
+    let mut slow = csv::Writer::from_path(root.join("slow.csv")).unwrap();
+    slow.write_record(&headers).unwrap();
+    for r in &rows {
+        let mut r: Vec<String> = r.iter().map(String::from).collect();
+        if r[col("label")] == "path" {
+            for c in [
+                "pixel_samples_per_s",
+                "pixel_samples_per_s_min",
+                "pixel_samples_per_s_max",
+            ] {
+                r[col(c)] = (r[col(c)].parse::<f64>().unwrap() / 3.0).to_string();
+            }
+        }
+        slow.write_record(&r).unwrap();
+    }
+    slow.flush().unwrap();
+    let o = bench(root, &["compare", "--perf", "base.csv", "slow.csv"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{stdout}");
+    let flagged: Vec<&str> = stdout.lines().filter(|l| l.contains("SLOWER")).collect();
+    assert!(flagged.len() == 1 && flagged[0].contains("path"), "{stdout}");
+
+    std::fs::write(root.join("bad.csv"), "a,b\n1,2\n").unwrap();
+    let o = bench(root, &["compare", "--perf", "base.csv", "bad.csv"]);
+    assert_refused(&o, &["bad.csv", "bench perf --csv"]);
 }

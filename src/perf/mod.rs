@@ -9,9 +9,10 @@
 //! so the timed run carries no counting overhead. [`strategies`] measures every registered
 //! strategy through the strategy trait (`bench perf --strategies`).
 
+pub mod compare;
 pub mod strategies;
 
-pub use strategies::{StrategyThroughput, measure_strategies};
+pub use strategies::{StrategyThroughput, measure_experiment, measure_strategies};
 
 use crate::geometry::Ray;
 use crate::sampling::Rng;

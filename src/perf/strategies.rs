@@ -1,30 +1,39 @@
-//! `bench perf --strategies`: the throughput of every registered strategy, measured through the
-//! [`Strategy`] trait exactly as experiments run it — preparation timed once, then a few
-//! repeats of rendering the first `samples` samples into a fresh film (the median and the
-//! spread, never a single timing) — with every counter the strategy keeps as a rate (light
-//! paths, connections, photons, gathers, mutations … per second).
+//! `bench perf --strategies` and `bench perf --experiment`: the throughput of strategies,
+//! measured through the [`Strategy`] trait exactly as experiments run them — each repeat builds
+//! the strategy afresh, prepares it and renders the first `samples` samples into a fresh film,
+//! and the median and spread over the repeats are reported, never a single timing — with every
+//! counter the strategy keeps as a rate (light paths, connections, photons, gathers, mutations
+//! … per second).
 //!
 //! Pixel samples per second are what an equal-time budget buys: the figure to read beside a
 //! strategy's error per sample. A progressive strategy starts over at sample 0 each repeat, as
 //! the equal-time film of a run does.
 
-use crate::error::Result;
+use crate::error::{Context, Result};
+use crate::experiment::Experiment;
 use crate::film::Film;
 use crate::scene::Scene;
 use crate::strategy::{Registry, Strategy};
 use std::time::Instant;
 
 /// One strategy's throughput on one scene.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct StrategyThroughput {
     pub scene: String,
     pub width: u32,
     pub height: u32,
-    /// The strategy kind (default parameters).
+    /// The label the strategy has in its experiment file (the kind for `--strategies`).
+    pub label: String,
+    /// The strategy kind.
     pub strategy: String,
+    /// The strategy's parameters as given (inline TOML; defaults fill the rest).
+    pub params: String,
     pub threads: usize,
-    /// Seconds of `prepare` (photon maps, chains' first states, B_eye …).
+    /// Seconds of `prepare` (photon maps, chains' first states, B_eye …): median, lowest and
+    /// highest over the repeats.
     pub prepare_s: f64,
+    pub prepare_s_min: f64,
+    pub prepare_s_max: f64,
     /// Samples per pixel rendered by each repeat.
     pub samples: u32,
     pub repeats: u32,
@@ -40,7 +49,7 @@ pub struct StrategyThroughput {
     pub git_revision: String,
 }
 
-/// Measures each of `kinds` (all of `registry` when empty) on `scene`.
+/// Measures each of `kinds` (all of `registry` when empty) with default parameters on `scene`.
 pub fn measure_strategies(
     scene: &Scene,
     registry: &Registry,
@@ -53,47 +62,164 @@ pub fn measure_strategies(
     } else {
         kinds.to_vec()
     };
-    kinds
+    let builders: Vec<Builder> = kinds
         .iter()
-        .map(|kind| {
-            let mut strategy = registry.build(kind, toml::Table::new())?;
-            measure_one(scene, strategy.as_mut(), samples, repeats.max(1))
+        .map(|kind| Box::new(move |p| registry.build(kind, p)) as Builder)
+        .collect();
+    let cases = kinds
+        .iter()
+        .zip(&builders)
+        .map(|(kind, build)| Case {
+            scene,
+            label: kind,
+            kind,
+            params: toml::Table::new(),
+            build: build.as_ref(),
+            samples,
         })
-        .collect()
+        .collect::<Vec<_>>();
+    measure_cases(&cases, repeats, &mut |_, _| {})
 }
 
-/// One repeat: render seconds and the counters' advance.
+/// Makes `scene`'s image `downscale` times smaller on each side (at least 1 pixel), same
+/// camera and field of view: expensive strategies are then timed in seconds, not minutes.
+/// Rates per pixel sample keep their meaning; costs per image (photon tracing, chains) do not
+/// shrink.
+pub fn downscale(scene: &mut Scene, downscale: u32) {
+    let c = &scene.camera;
+    let (w, h) = (
+        (c.width / downscale.max(1)).max(1),
+        (c.height / downscale.max(1)).max(1),
+    );
+    scene.camera = crate::camera::Camera::new(c.eye, c.look_at, c.up, c.fov_y_deg, w, h);
+}
+
+/// Measures every strategy of an experiment on every scene it runs on, in the file's order
+/// (scenes outer): the experiment's labels and parameters; each repeat renders `samples` spp,
+/// or when `None` the strategy's largest equal-samples checkpoint (its `spp`; 1 without one),
+/// so a suite gives fast strategies enough samples to time and slow ones few. Time budgets are
+/// not used. `progress` is told each case before it is measured.
+pub fn measure_experiment(
+    experiment: &Experiment,
+    downscale: u32,
+    samples: Option<u32>,
+    repeats: u32,
+    progress: &mut dyn FnMut(&str, &str),
+) -> Result<Vec<StrategyThroughput>> {
+    let scenes = experiment
+        .scenes
+        .iter()
+        .map(|file| {
+            let mut scene = crate::scene::load::load_scene(file).context(experiment.file.display())?;
+            self::downscale(&mut scene, downscale);
+            Ok((file, scene))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let builders: Vec<Builder> = experiment
+        .strategies
+        .iter()
+        .map(|spec| Box::new(move |p| (spec.registration.build)(p)) as Builder)
+        .collect();
+    let mut cases = Vec::new();
+    for (file, scene) in &scenes {
+        for (spec, build) in experiment.strategies.iter().zip(&builders) {
+            if spec.runs_on(file) {
+                cases.push(Case {
+                    scene,
+                    label: &spec.label,
+                    kind: &spec.kind,
+                    params: spec.params.clone(),
+                    build: build.as_ref(),
+                    samples: samples.unwrap_or_else(|| spec.spp.iter().copied().max().unwrap_or(1)),
+                });
+            }
+        }
+    }
+    measure_cases(&cases, repeats, progress)
+}
+
+type Builder<'a> = Box<dyn Fn(toml::Table) -> Result<Box<dyn Strategy>> + 'a>;
+
+/// What to measure: a strategy built from a label, kind and parameters, on a scene, rendering
+/// `samples` spp per repeat.
+struct Case<'a> {
+    scene: &'a Scene,
+    label: &'a str,
+    kind: &'a str,
+    params: toml::Table,
+    build: &'a dyn Fn(toml::Table) -> Result<Box<dyn Strategy>>,
+    samples: u32,
+}
+
+/// One repeat: preparation and render seconds and the counters' advance during rendering.
 struct Repeat {
+    prepare_s: f64,
     seconds: f64,
     advanced: Vec<(String, f64)>,
 }
 
-fn measure_one(scene: &Scene, strategy: &mut dyn Strategy, samples: u32, repeats: u32) -> Result<StrategyThroughput> {
-    let seed = 0;
+/// Every case `repeats` times, in rounds (every case once per round, and the machine
+/// calibration of [`super::compare::calibration`] at the start of each), so that each case's
+/// spread covers the slow drift of the machine over the whole measurement, not a moment of
+/// it. The calibration row comes last.
+fn measure_cases(
+    cases: &[Case],
+    repeats: u32,
+    progress: &mut dyn FnMut(&str, &str),
+) -> Result<Vec<StrategyThroughput>> {
+    let mut runs: Vec<Vec<Repeat>> = cases.iter().map(|_| Vec::new()).collect();
+    let mut calibration = Vec::new();
+    for _ in 0..repeats.max(1) {
+        progress("-", super::compare::CALIBRATION);
+        calibration.push(super::compare::calibration_rate());
+        for (case, runs) in cases.iter().zip(&mut runs) {
+            progress(&case.scene.name, case.label);
+            runs.push(measure_repeat(case)?);
+        }
+    }
+    let mut rows: Vec<StrategyThroughput> = cases
+        .iter()
+        .zip(runs)
+        .map(|(case, runs)| summarize(case, runs))
+        .collect();
+    rows.push(super::compare::calibration_row(calibration));
+    Ok(rows)
+}
+
+fn measure_repeat(case: &Case) -> Result<Repeat> {
+    let (scene, seed) = (case.scene, 0);
+    let mut strategy = (case.build)(case.params.clone())?;
     let start = Instant::now();
     strategy.prepare(scene, seed)?;
     let prepare_s = start.elapsed().as_secs_f64();
-    let mut runs: Vec<Repeat> = (0..repeats)
-        .map(|_| {
-            let before = strategy.counters();
-            let mut film = Film::new(scene.camera.width, scene.camera.height);
-            let start = Instant::now();
-            strategy.render_pass(scene, seed, 0..samples, &mut film);
-            let seconds = start.elapsed().as_secs_f64();
-            std::hint::black_box(film.image());
-            let advanced = strategy
-                .counters()
-                .into_iter()
-                .filter_map(|(name, v)| {
-                    let was = before.iter().find(|(n, _)| *n == name).map_or(0.0, |(_, w)| *w);
-                    (v != was).then_some((name, v - was))
-                })
-                .collect();
-            Repeat { seconds, advanced }
+    let before = strategy.counters();
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    let start = Instant::now();
+    strategy.render_pass(scene, seed, 0..case.samples, &mut film);
+    let seconds = start.elapsed().as_secs_f64();
+    std::hint::black_box(film.image());
+    let advanced = strategy
+        .counters()
+        .into_iter()
+        .filter_map(|(name, v)| {
+            let was = before.iter().find(|(n, _)| *n == name).map_or(0.0, |(_, w)| *w);
+            (v != was).then_some((name, v - was))
         })
         .collect();
+    Ok(Repeat {
+        prepare_s,
+        seconds,
+        advanced,
+    })
+}
+
+/// Median and range of the repeats; the counters of the median render.
+fn summarize(case: &Case, mut runs: Vec<Repeat>) -> StrategyThroughput {
+    let scene = case.scene;
+    let mut prepare: Vec<f64> = runs.iter().map(|r| r.prepare_s).collect();
+    prepare.sort_by(f64::total_cmp);
     runs.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
-    let pixel_samples = samples as f64 * scene.camera.pixel_count() as f64;
+    let pixel_samples = case.samples as f64 * scene.camera.pixel_count() as f64;
     let rate = |r: &Repeat| pixel_samples / r.seconds;
     let median = &runs[runs.len() / 2];
     let counters_per_s = median
@@ -102,20 +228,40 @@ fn measure_one(scene: &Scene, strategy: &mut dyn Strategy, samples: u32, repeats
         .map(|(name, d)| format!("{name}={:.0}", d / median.seconds))
         .collect::<Vec<_>>()
         .join(";");
-    Ok(StrategyThroughput {
+    StrategyThroughput {
         scene: scene.name.clone(),
         width: scene.camera.width,
         height: scene.camera.height,
-        strategy: strategy.kind().to_string(),
+        label: case.label.to_string(),
+        strategy: case.kind.to_string(),
+        params: inline_toml(&case.params),
         threads: rayon::current_num_threads(),
-        prepare_s,
-        samples,
-        repeats,
+        prepare_s: prepare[prepare.len() / 2],
+        prepare_s_min: prepare[0],
+        prepare_s_max: prepare[prepare.len() - 1],
+        samples: case.samples,
+        repeats: runs.len() as u32,
         pixel_samples_per_s: rate(median),
         pixel_samples_per_s_min: rate(&runs[runs.len() - 1]),
         pixel_samples_per_s_max: rate(&runs[0]),
         counters_per_s,
         cpu: crate::util::cpu_model(),
         git_revision: crate::util::git_revision(),
-    })
+    }
+}
+
+/// A parameter table on one line: `{ a = 1, b = { c = 2 } }`, `{}` when empty.
+fn inline_toml(table: &toml::Table) -> String {
+    let fields: Vec<String> = table
+        .iter()
+        .map(|(k, v)| match v {
+            toml::Value::Table(t) => format!("{k} = {}", inline_toml(t)),
+            v => format!("{k} = {v}"),
+        })
+        .collect();
+    if fields.is_empty() {
+        "{}".into()
+    } else {
+        format!("{{ {} }}", fields.join(", "))
+    }
 }
