@@ -56,22 +56,34 @@ impl Distribution1D {
     /// [0,1) within the item (so one uniform number can be reused).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        Self::sample_slices(&self.cdf, &self.pmf, u)
+    }
+
+    /// The cumulative weights (length n + 1, from 0 to 1) and the probabilities (length n),
+    /// for storing a distribution flat among others ([`Distribution1D::sample_slices`]).
+    pub fn slices(&self) -> (&[f32], &[f32]) {
+        (&self.cdf, &self.pmf)
+    }
+
+    /// [`Distribution1D::sample`] on the slices [`Distribution1D::slices`] gave.
+    #[inline]
+    pub fn sample_slices(cdf: &[f32], pmf: &[f32], u: f32) -> (usize, f32, f32) {
         // Largest i with cdf[i] <= u, skipping zero-probability items.
-        let mut i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1);
-        i = i.min(self.pmf.len() - 1);
-        while self.pmf[i] == 0.0 && i > 0 {
+        let mut i = cdf.partition_point(|&c| c <= u).saturating_sub(1);
+        i = i.min(pmf.len() - 1);
+        while pmf[i] == 0.0 && i > 0 {
             i -= 1;
         }
-        while self.pmf[i] == 0.0 {
+        while pmf[i] == 0.0 {
             i += 1;
         }
-        let width = self.cdf[i + 1] - self.cdf[i];
+        let width = cdf[i + 1] - cdf[i];
         let u_rem = if width > 0.0 {
-            ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON)
+            ((u - cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON)
         } else {
             0.0
         };
-        (i, self.pmf[i], u_rem)
+        (i, pmf[i], u_rem)
     }
 }
 

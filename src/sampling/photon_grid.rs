@@ -145,26 +145,101 @@ impl PhotonGrid {
     /// Samples a local direction (z > 0); returns it with its solid-angle pdf.
     #[inline]
     pub fn sample(&self, u: Vec2) -> (Vec3, f32) {
-        let (c, p_cell, u_rem) = self.cells.sample(u.x);
-        let (i, j) = (c / self.n, c % self.n);
-        // A uniform point in the cell: u.x was spent on the cell choice and is reused via its
-        // remainder for the u coordinate; u.y drives v.
-        let uu = (i as f32 + u_rem) / self.m as f32;
-        let vv = (j as f32 + u.y) / self.n as f32;
-        let cos_theta = (1.0 - uu).max(0.0).sqrt();
-        let sin_theta = uu.sqrt();
-        let phi = TAU * vv;
-        let w = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
-        (w, cos_theta * FRAC_1_PI * p_cell * self.cell_count() as f32)
+        let (cdf, pmf) = self.cells.slices();
+        sample_cells(self.m, self.n, cdf, pmf, u)
     }
 
     /// Solid-angle pdf of `sample` for local direction `w`.
     #[inline]
     pub fn pdf(&self, w: Vec3) -> f32 {
-        if w.z <= 0.0 {
-            return 0.0;
-        }
-        w.z * FRAC_1_PI * self.cells.pmf(cell_of(w, self.m, self.n)) * self.cell_count() as f32
+        pdf_cells(self.m, self.n, self.cells.slices().1, w)
+    }
+}
+
+/// [`PhotonGrid::sample`] on a grid's cell distribution given as slices.
+#[inline]
+fn sample_cells(m: usize, n: usize, cdf: &[f32], pmf: &[f32], u: Vec2) -> (Vec3, f32) {
+    let (c, p_cell, u_rem) = Distribution1D::sample_slices(cdf, pmf, u.x);
+    let (i, j) = (c / n, c % n);
+    // A uniform point in the cell: u.x was spent on the cell choice and is reused via its
+    // remainder for the u coordinate; u.y drives v.
+    let uu = (i as f32 + u_rem) / m as f32;
+    let vv = (j as f32 + u.y) / n as f32;
+    let cos_theta = (1.0 - uu).max(0.0).sqrt();
+    let sin_theta = uu.sqrt();
+    let phi = TAU * vv;
+    let w = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+    (w, cos_theta * FRAC_1_PI * p_cell * (m * n) as f32)
+}
+
+/// [`PhotonGrid::pdf`] on a grid's cell probabilities given as a slice.
+#[inline]
+fn pdf_cells(m: usize, n: usize, pmf: &[f32], w: Vec3) -> f32 {
+    if w.z <= 0.0 {
+        return 0.0;
+    }
+    w.z * FRAC_1_PI * pmf[cell_of(w, m, n)] * (m * n) as f32
+}
+
+/// Many grids of one shape stored flat in one array (each its cumulative weights then its
+/// cell probabilities), so that a precomputed pdf is one contiguous read instead of three
+/// scattered ones; sampling and pdf are exactly [`PhotonGrid`]'s.
+#[derive(Clone, Debug)]
+pub struct FlatGrids {
+    m: usize,
+    n: usize,
+    data: Vec<f32>,
+}
+
+impl FlatGrids {
+    pub fn new(m: usize, n: usize) -> Self {
+        Self { m, n, data: Vec::new() }
+    }
+
+    /// Floats per grid: m·n + 1 cumulative weights, m·n probabilities.
+    fn stride(&self) -> usize {
+        2 * self.m * self.n + 1
+    }
+
+    /// Appends `grid` (of this shape) as grid number [`FlatGrids::len`].
+    pub fn push(&mut self, grid: &PhotonGrid) {
+        assert_eq!((grid.m, grid.n), (self.m, self.n), "one shape for all grids");
+        let (cdf, pmf) = grid.cells.slices();
+        self.data.extend_from_slice(cdf);
+        self.data.extend_from_slice(pmf);
+    }
+
+    pub fn len(&self) -> usize {
+        self.data.len() / self.stride()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.data.is_empty()
+    }
+
+    /// Memory held, in bytes.
+    pub fn bytes(&self) -> usize {
+        self.data.len() * std::mem::size_of::<f32>()
+    }
+
+    #[inline]
+    fn slices(&self, i: usize) -> (&[f32], &[f32]) {
+        let cells = self.m * self.n;
+        let grid = &self.data[i * self.stride()..(i + 1) * self.stride()];
+        grid.split_at(cells + 1)
+    }
+
+    /// [`PhotonGrid::sample`] of grid `i`.
+    #[inline]
+    pub fn sample(&self, i: usize, u: Vec2) -> (Vec3, f32) {
+        let (cdf, pmf) = self.slices(i);
+        sample_cells(self.m, self.n, cdf, pmf, u)
+    }
+
+    /// [`PhotonGrid::pdf`] of grid `i`.
+    #[inline]
+    pub fn pdf(&self, i: usize, w: Vec3) -> f32 {
+        pdf_cells(self.m, self.n, self.slices(i).1, w)
     }
 }
 

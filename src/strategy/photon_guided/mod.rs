@@ -85,7 +85,7 @@ use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::params::{Params, Range};
 use crate::photon::{CausticStorage, KdPoint, KdTree, Photon, TraceParams, trace_photons};
 use crate::resources;
-use crate::sampling::photon_grid::{EmptyCells, PhotonGrid};
+use crate::sampling::photon_grid::{EmptyCells, FlatGrids};
 use crate::scene::Scene;
 use glam::Vec3;
 use std::time::Instant;
@@ -147,16 +147,25 @@ impl KdPoint for GuidePhoton {
     }
 }
 
-/// Jensen's pdf precomputed at a photon (`precomputed_pdfs`), in the frame
-/// `Frame::from_normal_tangent(normal, tangent)`.
-#[derive(Clone, Debug)]
+/// Where Jensen's pdf was precomputed at a photon (`precomputed_pdfs`): the key a vertex
+/// looks up. The pdf itself is grid `id` of [`PdfRecords::grids`], in the frame
+/// `Frame::from_normal_tangent(normal, PdfRecords::tangents[id])`.
+#[derive(Clone, Copy, Debug)]
 pub struct PdfRecord {
     pub position: Vec3,
     /// Unit normal of the side the photon arrived on.
     pub normal: Vec3,
-    /// First axis of the frame the grid was built in.
-    pub tangent: Vec3,
-    pub grid: PhotonGrid,
+    pub id: u32,
+}
+
+/// The precomputed pdfs: their keys in a kd-tree of their own (28 bytes each, so that the
+/// per-vertex nearest-record search walks a dense array) and, indexed by the key's `id`, the
+/// first axis of each frame and the grids stored flat (one contiguous read per vertex).
+#[derive(Clone, Debug)]
+pub struct PdfRecords {
+    pub tree: KdTree<PdfRecord>,
+    pub tangents: Vec<Vec3>,
+    pub grids: FlatGrids,
 }
 
 impl KdPoint for PdfRecord {
@@ -169,7 +178,7 @@ impl KdPoint for PdfRecord {
 pub struct PhotonGuided {
     pub params: PhotonGuidedParams,
     map: Option<KdTree<GuidePhoton>>,
-    records: Option<KdTree<PdfRecord>>,
+    records: Option<PdfRecords>,
 }
 
 impl PhotonGuided {

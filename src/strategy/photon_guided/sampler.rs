@@ -9,7 +9,7 @@ use crate::color::luminance;
 use crate::geometry::Frame;
 use crate::photon::{KdTree, Neighbour};
 use crate::sampling::Rng;
-use crate::sampling::photon_grid::PhotonGrid;
+use crate::sampling::photon_grid::{FlatGrids, PhotonGrid};
 use crate::scene::{Scene, SurfaceHit};
 use crate::strategy::path::{BsdfSampling, DirectionSampler};
 use glam::Vec3;
@@ -18,27 +18,33 @@ use std::cell::RefCell;
 
 /// Jensen's pdf at every `every`-th photon of `map` (in kd-tree order, so the set depends on
 /// the seed only), each built for the side its photon arrived on.
-pub fn precompute_pdfs(map: &KdTree<GuidePhoton>, params: &PhotonGuidedParams, every: usize) -> KdTree<PdfRecord> {
+pub fn precompute_pdfs(map: &KdTree<GuidePhoton>, params: &PhotonGuidedParams, every: usize) -> PdfRecords {
     let sampler = GridSampler {
         map,
         params,
         records: None,
     };
-    let records = map
+    let built: Vec<(Vec3, PhotonGrid)> = map
         .items()
         .par_chunks(every)
         .map(|chunk| {
             let ph = &chunk[0];
             let frame = Frame::from_normal(ph.normal);
-            PdfRecord {
-                position: ph.position,
-                normal: ph.normal,
-                tangent: frame.s,
-                grid: sampler.product_grid_in(ph.position, &frame, false, |_| 1.0),
-            }
+            (frame.s, sampler.product_grid_in(ph.position, &frame, false, |_| 1.0))
         })
         .collect();
-    KdTree::build(records)
+    let keys = map.items().iter().step_by(every).enumerate().map(|(id, ph)| PdfRecord {
+        position: ph.position,
+        normal: ph.normal,
+        id: id as u32,
+    });
+    let mut grids = FlatGrids::new(params.grid[0], params.grid[1]);
+    built.iter().for_each(|(_, grid)| grids.push(grid));
+    PdfRecords {
+        tree: KdTree::build(keys.collect()),
+        tangents: built.into_iter().map(|(tangent, _)| tangent).collect(),
+        grids,
+    }
 }
 
 /// Direction choice with Jensen's grid at Lambertian vertices.
@@ -46,7 +52,7 @@ pub struct GridSampler<'a> {
     pub map: &'a KdTree<GuidePhoton>,
     pub params: &'a PhotonGuidedParams,
     /// Precomputed pdfs (`precomputed_pdfs`), if any.
-    pub records: Option<&'a KdTree<PdfRecord>>,
+    pub records: Option<&'a PdfRecords>,
 }
 
 /// A guided vertex's pdf.
@@ -112,12 +118,14 @@ impl GridSampler<'_> {
     pub(super) fn precomputed_at(&self, hit: &SurfaceHit, flip: bool) -> Option<GuidedVertex> {
         let (records, pre) = (self.records?, self.params.precomputed_pdfs.as_ref()?);
         let n = if flip { -hit.frame.n } else { hit.frame.n };
-        let found = records.nearest_where(hit.p, self.params.max_radius, |r| r.normal.dot(n) > pre.normal_dot)?;
-        let record = &records.items()[found.index as usize];
+        let found = records
+            .tree
+            .nearest_where(hit.p, self.params.max_radius, |r| r.normal.dot(n) > pre.normal_dot)?;
+        let id = records.tree.items()[found.index as usize].id;
         let n_local = if flip { -Vec3::Z } else { Vec3::Z };
         Some(GuidedVertex::Precomputed {
-            record: found.index,
-            frame: Frame::from_normal_tangent(n_local, hit.frame.to_local(record.tangent)),
+            record: id,
+            frame: Frame::from_normal_tangent(n_local, hit.frame.to_local(records.tangents[id as usize])),
         })
     }
 
@@ -128,7 +136,7 @@ impl GridSampler<'_> {
             GuidedVertex::Built { grid, flip } => Some(mirror(grid.sample(u).0, *flip)),
             GuidedVertex::Precomputed { record, frame } => {
                 let records = self.records.expect("a precomputed vertex has records");
-                Some(frame.to_world(records.items()[*record as usize].grid.sample(u).0))
+                Some(frame.to_world(records.grids.sample(*record as usize, u).0))
             }
         }
     }
@@ -140,7 +148,7 @@ impl GridSampler<'_> {
             GuidedVertex::Built { grid, flip } => grid.pdf(mirror(wi, *flip)),
             GuidedVertex::Precomputed { record, frame } => {
                 let records = self.records.expect("a precomputed vertex has records");
-                records.items()[*record as usize].grid.pdf(frame.to_local(wi))
+                records.grids.pdf(*record as usize, frame.to_local(wi))
             }
         }
     }

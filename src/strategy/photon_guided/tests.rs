@@ -118,9 +118,9 @@ fn precomputed_pdf_at_its_own_photon_is_the_built_pdf() {
     };
     let mut rng = Rng::for_task(13, [0, 0, 0]);
     let mut checked = [0, 0];
-    for record in records.items().iter().take(40) {
+    for record in records.tree.items().iter().take(40) {
         let flip = record.normal.dot(n) < 0.0;
-        let aligned = Frame::from_normal_tangent(n, record.tangent);
+        let aligned = Frame::from_normal_tangent(n, records.tangents[record.id as usize]);
         let built = GuidedVertex::Built {
             grid: sampler.grid_at(&hit_at(record.position, aligned), flip),
             flip,
