@@ -522,3 +522,105 @@ fn export_refuses_what_mitsuba_cannot_express() {
         assert!(!dir.path().join("x.xml").exists());
     }
 }
+
+/// Writes `files` (relative name, text) under a new temporary directory.
+fn write_files(files: &[(&str, &str)]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        let path = dir.path().join(name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, text).unwrap();
+    }
+    dir
+}
+
+const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/// `<include>` reads the included scene's elements in its place — sharing named BSDFs both
+/// ways and the defaults, where the including file's default wins — and `<path>` adds a
+/// directory to look relative names up in (first the latest `<path>`, then the file's own
+/// directory): the scene split over four files and two directories is the one-file scene,
+/// and its content hash covers the included file's bytes.
+#[test]
+fn include_and_path_read_a_scene_split_over_files() {
+    let light = "<scene version=\"3.0.0\"><default name=\"fov\" value=\"20\"/>\n".to_string() + LIGHT + "</scene>";
+    let parts = "<scene version=\"3.0.0\">
+        <bsdf type=\"twosided\" id=\"red\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5 0.1 0.1\"/></bsdf></bsdf>
+        <shape type=\"obj\"><string name=\"filename\" value=\"tri.obj\"/><boolean name=\"face_normals\" value=\"true\"/><ref id=\"white\"/></shape>
+        <shape type=\"sphere\"><float name=\"radius\" value=\"0.25\"/><ref id=\"red\"/></shape>
+    </scene>";
+    let white = "<bsdf type=\"twosided\" id=\"white\"><bsdf type=\"diffuse\"/></bsdf>";
+    let split = scene_xml(&format!(
+        "<path value=\"lib\"/>\n<include filename=\"light.xml\"/>\n{white}\n<include filename=\"parts.xml\"/>\n\
+         <shape type=\"cube\"><ref id=\"red\"/></shape>"
+    ));
+    let dir = write_files(&[
+        ("main.xml", &split),
+        ("lib/light.xml", &light),
+        ("lib/parts.xml", parts),
+        ("lib/tri.obj", TRIANGLE_OBJ),
+    ]);
+    let (a, stats) = load_scene_with_stats(&dir.path().join("main.xml")).unwrap();
+    assert!(stats.warnings.is_empty(), "{:?}", stats.warnings);
+    assert!(
+        stats.files_read.iter().any(|f| f.ends_with("lib/parts.xml")),
+        "{:?}",
+        stats.files_read
+    );
+
+    let whole = scene_xml(&format!(
+        "{LIGHT}\n{white}\n<bsdf type=\"twosided\" id=\"red\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5 0.1 0.1\"/></bsdf></bsdf>\n\
+         <shape type=\"obj\"><string name=\"filename\" value=\"lib/tri.obj\"/><boolean name=\"face_normals\" value=\"true\"/><ref id=\"white\"/></shape>\n\
+         <shape type=\"sphere\"><float name=\"radius\" value=\"0.25\"/><ref id=\"red\"/></shape>\n\
+         <shape type=\"cube\"><ref id=\"red\"/></shape>"
+    ));
+    std::fs::write(dir.path().join("whole.xml"), &whole).unwrap();
+    let (b, _) = load_scene_with_stats(&dir.path().join("whole.xml")).unwrap();
+    assert_same_scene(&a, &b, "split vs whole");
+    // The including file's fov (60), not the included one's (20): the same camera rays.
+    assert_eq!(a.camera.fov_y_deg, b.camera.fov_y_deg);
+
+    // Changing only the included file changes the scene's hash.
+    let before = a.content_hash.clone();
+    std::fs::write(dir.path().join("lib/parts.xml"), parts.replace("0.25", "0.3")).unwrap();
+    let (c, _) = load_scene_with_stats(&dir.path().join("main.xml")).unwrap();
+    assert_ne!(before, c.content_hash, "the hash covers included files");
+}
+
+/// A missing include, an include cycle and an include that is not a scene are refused in
+/// one line naming the file and the element.
+#[test]
+fn bad_includes_are_refused_naming_the_file() {
+    let a = scene_xml(&format!("{LIGHT}<include filename=\"b.xml\"/>"));
+    let b = "<scene version=\"3.0.0\"><include filename=\"a.xml\"/></scene>";
+    let dir = write_files(&[
+        ("a.xml", &a),
+        ("b.xml", b),
+        (
+            "missing.xml",
+            &scene_xml(&format!("{LIGHT}<include filename=\"nope.xml\"/>")),
+        ),
+        (
+            "shape.xml",
+            &scene_xml(&format!("{LIGHT}<include filename=\"notscene.xml\"/>")),
+        ),
+        ("notscene.xml", "<shape type=\"sphere\"/>"),
+    ]);
+    for (file, expected) in [
+        ("a.xml", &["b.xml", "<include filename=\"a.xml\">", "cycle"][..]),
+        (
+            "missing.xml",
+            &["missing.xml", "<include filename=\"nope.xml\">", "cannot read"][..],
+        ),
+        ("shape.xml", &["notscene.xml", "<scene>"][..]),
+    ] {
+        let Err(err) = load_scene_with_stats(&dir.path().join(file)) else {
+            panic!("{file} loaded");
+        };
+        let err = err.to_string();
+        assert_eq!(err.lines().count(), 1, "{err}");
+        for e in expected {
+            assert!(err.contains(e), "{file}: expected `{e}` in `{err}`");
+        }
+    }
+}

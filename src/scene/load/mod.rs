@@ -106,11 +106,16 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     // Mitsuba scenes become the same description; only how shapes are named in errors and
     // the warnings differ. The hash below covers the XML bytes and meshes as for TOML.
-    let (desc, shape_labels, warnings) = if is_mitsuba(path) {
+    let (desc, shape_labels, warnings, included) = if is_mitsuba(path) {
         let imported = super::mitsuba::import(&ctx.file, &dir, text)?;
-        (imported.desc, Some(imported.shape_labels), imported.warnings)
+        (
+            imported.desc,
+            Some(imported.shape_labels),
+            imported.warnings,
+            imported.included,
+        )
     } else {
-        (parse_desc(&ctx, text)?, None, Vec::new())
+        (parse_desc(&ctx, text)?, None, Vec::new(), Vec::new())
     };
 
     let mut b = Builder {
@@ -124,6 +129,11 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
             ..LoadStats::default()
         },
     };
+    // Included Mitsuba files are part of the scene's content, as meshes are.
+    for (file, bytes) in included {
+        b.hashed.push(bytes);
+        b.stats.files_read.push(file);
+    }
     let camera = camera(&ctx, &desc.camera)?;
     let (materials, material_index) = materials(&ctx, &desc.materials)?;
     for (i, shape) in desc.shapes.iter().enumerate() {

@@ -11,7 +11,9 @@
 //!
 //! | Mitsuba 3 | photon-bench |
 //! |---|---|
-//! | `<default name value>`, `$name` in any attribute | substituted before anything is read; an undefined `$name` is an error |
+//! | `<default name value>`, `$name` in any attribute | substituted before anything is read; an undefined `$name` is an error; a default already given (by an including file) stands |
+//! | `<include filename>` (top level) | the included file's `<scene>` elements, read in its place with this scene's defaults and named BSDFs; its bytes join the content hash; cycles and nesting beyond 16 files are errors |
+//! | `<path value>` (top level) | a directory (relative to the file) where relative file names — OBJ files, includes — are looked up first, the latest `<path>` first, before the file's own directory |
 //! | `<bsdf id>` at the top level, `<ref id>` in a shape | a material named by the id |
 //! | `sensor` `perspective`: `fov`, `fov_axis` (x, y, diagonal, smaller, larger; default x), `to_world` | `camera`: `eye`, `look_at`, `up`, `fov_y` |
 //! | `near_clip`, `far_clip`, `sampler`, top-level `integrator` | ignored with a warning (no clipping planes; the experiment picks spp and strategy) |
@@ -119,21 +121,41 @@ pub struct Imported {
     pub shape_labels: Vec<String>,
     /// Approximations and ignored settings, one line each, already prefixed with the file.
     pub warnings: Vec<String>,
+    /// Every file `<include>`d (at any depth) with its bytes, in reading order: they belong
+    /// to the scene's content hash as the scene file does.
+    pub included: Vec<(std::path::PathBuf, Vec<u8>)>,
 }
 
-/// Reads a Mitsuba 3 XML scene. `file` names it in messages; `dir` anchors relative OBJ paths.
+/// How deep `<include>`s may nest (a cycle is refused before that).
+const MAX_INCLUDE_DEPTH: usize = 16;
+
+/// Reads a Mitsuba 3 XML scene. `file` names it in messages; `dir` anchors relative paths
+/// (OBJ files, `<include>`s, `<path>`s).
 pub fn import(file: &str, dir: &Path, text: &str) -> Result<Imported> {
     let doc = Document::parse(text).map_err(|e| Error::new(format!("{file}: XML syntax error: {e}")))?;
     let mut r = Reader {
         file,
         doc: &doc,
         dir,
+        search: Vec::new(),
+        including: vec![
+            std::fs::canonicalize(dir.join(Path::new(file).file_name().unwrap_or_default())).unwrap_or_default(),
+        ],
         defaults: BTreeMap::new(),
         warnings: Vec::new(),
         materials: BTreeMap::new(),
         bsdf_ids: BTreeMap::new(),
     };
     r.scene(doc.root_element())
+}
+
+/// What the top-level elements of a scene and of the files it includes add up to.
+#[derive(Default)]
+struct SceneParts {
+    camera: Option<desc::CameraDesc>,
+    shapes: Vec<desc::ShapeDesc>,
+    labels: Vec<String>,
+    included: Vec<(std::path::PathBuf, Vec<u8>)>,
 }
 
 /// A property element or a nested object, by its `name`.
@@ -148,6 +170,12 @@ struct Reader<'a, 'i> {
     file: &'a str,
     doc: &'a Document<'i>,
     dir: &'a Path,
+    /// `<path value>` directories, the latest first: relative file names are looked up there
+    /// before `dir` (Mitsuba's file resolver).
+    search: Vec<std::path::PathBuf>,
+    /// The files being read, outermost first (canonical paths): an `<include>` of one of
+    /// them is a cycle.
+    including: Vec<std::path::PathBuf>,
     /// `<default name value>`: what `$name` stands for.
     defaults: BTreeMap<String, String>,
     warnings: Vec<String>,
@@ -161,7 +189,7 @@ impl<'a, 'i> Reader<'a, 'i> {
     fn label(&self, n: Node) -> String {
         let line = self.doc.text_pos_at(n.range().start).row;
         let mut tag = format!("<{}", n.tag_name().name());
-        for key in ["type", "id", "name"] {
+        for key in ["type", "id", "name", "filename"] {
             if let Some(v) = n.attribute(key) {
                 tag.push_str(&format!(" {key}=\"{v}\""));
             }
@@ -263,75 +291,14 @@ impl<'a, 'i> Reader<'a, 'i> {
     // -----------------------------------------------------------------------------------------
 
     fn scene(&mut self, root: Node<'a, 'i>) -> Result<Imported> {
-        if root.tag_name().name() != "scene" {
-            return Err(self.err(root, "expected a Mitsuba 3 <scene> root element"));
-        }
-        // Defaults first: `$name` may appear anywhere, also before its <default>.
-        for n in root.children().filter(|n| n.has_tag_name("default")) {
-            let name = self.required(n, "name")?;
-            let value = self
-                .attr(n, "value")?
-                .ok_or_else(|| self.err(n, "expected a `value` attribute"))?;
-            if self.defaults.insert(name.clone(), value).is_some() {
-                return Err(self.err(n, format!("default {name:?} is given twice")));
-            }
-        }
-        let mut camera = None;
-        let mut shapes = Vec::new();
-        let mut labels = Vec::new();
-        let elements: Vec<Node> = root.children().filter(Node::is_element).collect();
-        // Named BSDFs first, so that a <ref> may precede the definition it names.
-        for &n in &elements {
-            if n.has_tag_name("bsdf") {
-                let Some(id) = self.attr(n, "id")? else {
-                    return Err(self.err(n, "a top-level <bsdf> needs an `id` for shapes to <ref> it"));
-                };
-                let m = self.bsdf(n)?;
-                if self.bsdf_ids.contains_key(&id) || self.materials.contains_key(&id) {
-                    return Err(self.err(n, format!("id {id:?} is used twice")));
-                }
-                self.bsdf_ids.insert(id.clone(), id.clone());
-                self.materials.insert(id, m);
-            }
-        }
-        for n in root.children() {
-            if n.is_text() && !n.text().unwrap_or("").trim().is_empty() {
-                return Err(self.err(root, format!("unexpected text {:?}", n.text().unwrap_or("").trim())));
-            }
-        }
-        for &n in &elements {
-            match n.tag_name().name() {
-                "default" | "bsdf" => {}
-                "sensor" => {
-                    if camera.is_some() {
-                        return Err(self.err(n, "a second <sensor>: photon-bench renders one camera per scene"));
-                    }
-                    camera = Some(self.sensor(n)?);
-                }
-                "shape" => {
-                    labels.push(self.label(n));
-                    shapes.push(self.shape(n, shapes.len())?);
-                }
-                "integrator" => self.warn(
-                    n,
-                    "ignored: the experiment file chooses the strategy (Mitsuba's max_depth N is our max_depth N - 1)",
-                ),
-                "emitter" => {
-                    return Err(self.err(
-                        n,
-                        "unsupported emitter: photon-bench has area lights only (put <emitter type=\"area\"> inside a <shape>)",
-                    ));
-                }
-                other => {
-                    return Err(self.err(
-                        n,
-                        format!(
-                            "unsupported element <{other}> (photon-bench reads default, sensor, bsdf, shape and integrator)"
-                        ),
-                    ));
-                }
-            }
-        }
+        let mut parts = SceneParts::default();
+        self.scene_elements(root, &mut parts)?;
+        let SceneParts {
+            camera,
+            shapes,
+            labels,
+            included,
+        } = parts;
         let Some(camera) = camera else {
             return Err(Error::new(format!(
                 "{}: no <sensor>: add <sensor type=\"perspective\"> with a fov, a to_world and a film",
@@ -359,6 +326,153 @@ impl<'a, 'i> Reader<'a, 'i> {
             },
             shape_labels: labels,
             warnings: std::mem::take(&mut self.warnings),
+            included,
         })
+    }
+
+    /// Reads the top-level elements of `root` (a `<scene>`) into `parts`, in document order;
+    /// an `<include>` reads the included scene's elements in its place.
+    fn scene_elements(&mut self, root: Node<'a, 'i>, parts: &mut SceneParts) -> Result<()> {
+        if root.tag_name().name() != "scene" {
+            return Err(self.err(root, "expected a Mitsuba 3 <scene> root element"));
+        }
+        // Defaults first: `$name` may appear anywhere, also before its <default>. A default an
+        // including file (or the command line) gave already stands, as in Mitsuba.
+        let mut own = std::collections::BTreeSet::new();
+        for n in root.children().filter(|n| n.has_tag_name("default")) {
+            let name = self.required(n, "name")?;
+            let value = self
+                .attr(n, "value")?
+                .ok_or_else(|| self.err(n, "expected a `value` attribute"))?;
+            if !own.insert(name.clone()) {
+                return Err(self.err(n, format!("default {name:?} is given twice")));
+            }
+            self.defaults.entry(name).or_insert(value);
+        }
+        let elements: Vec<Node> = root.children().filter(Node::is_element).collect();
+        // Named BSDFs first, so that a <ref> may precede the definition it names.
+        for &n in &elements {
+            if n.has_tag_name("bsdf") {
+                let Some(id) = self.attr(n, "id")? else {
+                    return Err(self.err(n, "a top-level <bsdf> needs an `id` for shapes to <ref> it"));
+                };
+                let m = self.bsdf(n)?;
+                if self.bsdf_ids.contains_key(&id) || self.materials.contains_key(&id) {
+                    return Err(self.err(n, format!("id {id:?} is used twice")));
+                }
+                self.bsdf_ids.insert(id.clone(), id.clone());
+                self.materials.insert(id, m);
+            }
+        }
+        for n in root.children() {
+            if n.is_text() && !n.text().unwrap_or("").trim().is_empty() {
+                return Err(self.err(root, format!("unexpected text {:?}", n.text().unwrap_or("").trim())));
+            }
+        }
+        for &n in &elements {
+            match n.tag_name().name() {
+                "default" | "bsdf" => {}
+                "include" => self.include(n, parts)?,
+                "path" => {
+                    let value = self.required(n, "value")?;
+                    self.search.insert(0, self.dir.join(value));
+                }
+                "sensor" => {
+                    if parts.camera.is_some() {
+                        return Err(self.err(n, "a second <sensor>: photon-bench renders one camera per scene"));
+                    }
+                    parts.camera = Some(self.sensor(n)?);
+                }
+                "shape" => {
+                    parts.labels.push(self.label(n));
+                    let shape = self.shape(n, parts.shapes.len())?;
+                    parts.shapes.push(shape);
+                }
+                "integrator" => self.warn(
+                    n,
+                    "ignored: the experiment file chooses the strategy (Mitsuba's max_depth N is our max_depth N - 1)",
+                ),
+                "emitter" => {
+                    return Err(self.err(
+                        n,
+                        "unsupported emitter: photon-bench has area lights only (put <emitter type=\"area\"> inside a <shape>)",
+                    ));
+                }
+                other => {
+                    return Err(self.err(
+                        n,
+                        format!(
+                            "unsupported element <{other}> (photon-bench reads default, include, path, sensor, bsdf, shape and integrator)"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `<include filename>`: the file (found as [`Reader::resolve`] says) must be a `<scene>`;
+    /// its elements are read here, sharing this scene's defaults, named BSDFs and search
+    /// directories. Relative names inside it are looked up in the `<path>` directories, then
+    /// in the included file's own directory.
+    fn include(&mut self, n: Node<'a, 'i>, parts: &mut SceneParts) -> Result<()> {
+        let name = self.required(n, "filename")?;
+        let path = self.resolve(&name);
+        if self.including.len() > MAX_INCLUDE_DEPTH {
+            return Err(self.err(n, format!("includes nest deeper than {MAX_INCLUDE_DEPTH} files")));
+        }
+        let canonical = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
+        if self.including.contains(&canonical) {
+            return Err(self.err(n, format!("filename: {} includes itself (a cycle)", path.display())));
+        }
+        let bytes = crate::util::read_input(&path, "included scene", crate::util::MAX_TEXT_INPUT)
+            .map_err(|e| self.err(n, format!("filename: cannot read {}: {e}", path.display())))?;
+        let file = path.display().to_string();
+        let text = std::str::from_utf8(&bytes).map_err(|e| {
+            Error::new(format!(
+                "{file}: not valid UTF-8 (first bad byte at offset {})",
+                e.valid_up_to()
+            ))
+        })?;
+        let doc = Document::parse(text).map_err(|e| Error::new(format!("{file}: XML syntax error: {e}")))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mut including = std::mem::take(&mut self.including);
+        including.push(canonical);
+        let mut inner = Reader {
+            file: &file,
+            doc: &doc,
+            dir: &dir,
+            search: self.search.clone(),
+            including,
+            defaults: std::mem::take(&mut self.defaults),
+            warnings: std::mem::take(&mut self.warnings),
+            materials: std::mem::take(&mut self.materials),
+            bsdf_ids: std::mem::take(&mut self.bsdf_ids),
+        };
+        let read = inner.scene_elements(doc.root_element(), parts);
+        self.defaults = inner.defaults;
+        self.warnings = inner.warnings;
+        self.materials = inner.materials;
+        self.bsdf_ids = inner.bsdf_ids;
+        self.including = inner.including;
+        self.including.pop();
+        read?;
+        parts.included.push((path, bytes));
+        Ok(())
+    }
+
+    /// A relative file name as Mitsuba's file resolver finds it: in the `<path>` directories
+    /// (the latest first), then in this file's directory; absolute names as they are. A name
+    /// found nowhere resolves against this file's directory, so that the error names it there.
+    pub(super) fn resolve(&self, name: &str) -> std::path::PathBuf {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            return p.to_path_buf();
+        }
+        self.search
+            .iter()
+            .map(|d| d.join(p))
+            .find(|c| c.is_file())
+            .unwrap_or_else(|| self.dir.join(p))
     }
 }

@@ -106,9 +106,20 @@ impl<'a, 'i> Reader<'a, 'i> {
                     return Err(self.err(n, "expected <string name=\"filename\">"));
                 };
                 let face_normals = self.boolean(&mut o, "face_normals")?.unwrap_or(false);
-                let path = self.dir.join(&file);
+                let path = self.resolve(&file);
                 let text = crate::util::read_input(&path, "mesh", crate::util::MAX_MESH_INPUT)
                     .map_err(|e| self.err(p, format!("filename: cannot read {}: {e}", path.display())))?;
+                // The loader reads meshes relative to the scene file's directory: a mesh found
+                // elsewhere (a `<path>` directory, an included file's directory) is named by its
+                // absolute path.
+                let file = if self.including.len() == 1 && path == self.dir.join(&file) {
+                    file
+                } else {
+                    std::fs::canonicalize(&path)
+                        .map_err(|e| self.err(p, format!("filename: cannot resolve {}: {e}", path.display())))?
+                        .display()
+                        .to_string()
+                };
                 let has_normals = text
                     .split(|&b| b == b'\n')
                     .any(|l| l.trim_ascii_start().starts_with(b"vn "));
