@@ -5,7 +5,6 @@ use clap::{Parser, Subcommand};
 use photon_bench::error::{Error, Result};
 use photon_bench::experiment::{self, Experiment, reference};
 use photon_bench::light::{LightSelection, SphereSampling};
-use photon_bench::scene::load_scene;
 use photon_bench::strategy::path::{BsdfSampling, Direct, PathParams, Roulette};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -50,6 +49,11 @@ enum Command {
     Reference {
         /// The scene file, e.g. scenes/cornell-empty.toml.
         scene: PathBuf,
+        /// A Mitsuba scene parameter, NAME=VALUE (repeatable): `$NAME` in the scene stands for
+        /// VALUE over its <default> (as `mitsuba -D`); the scene is then named
+        /// <stem>-NAME-VALUE, and so is its reference.
+        #[arg(long = "param", value_name = "NAME=VALUE")]
+        params: Vec<String>,
         /// Samples per pixel.
         #[arg(long)]
         spp: u32,
@@ -87,6 +91,9 @@ enum Command {
         /// The scene (default: Mitsuba 3's Cornell box at 256×256, the peer's benchmark scene).
         #[arg(long, default_value = "scenes/cornell-box.toml")]
         scene: PathBuf,
+        /// A Mitsuba scene parameter of --scene, NAME=VALUE (repeatable; see `bench reference`).
+        #[arg(long = "param", value_name = "NAME=VALUE")]
+        params: Vec<String>,
         #[arg(long, default_value_t = 16)]
         spp: u32,
         /// Scattering events; 4 equals Mitsuba's max_depth = 5.
@@ -345,6 +352,7 @@ fn run_command(command: Command) -> Result<Status> {
         }
         Command::Reference {
             scene,
+            params: scene_params,
             spp,
             seed,
             out,
@@ -369,7 +377,7 @@ fn run_command(command: Command) -> Result<Status> {
                 light_selection: parse_enum::<LightSelection>("--light-selection", &light_selection)?,
                 sphere_light_sampling: parse_enum::<SphereSampling>("--sphere-light-sampling", &sphere_light_sampling)?,
             };
-            let scene = load_scene(&scene)?;
+            let scene = scene_source(scene, &scene_params)?.load()?;
             let existing = reference::exr_path(&out, &scene.name);
             if existing.exists() && !force {
                 return Err(Error::new(format!(
@@ -385,6 +393,7 @@ fn run_command(command: Command) -> Result<Status> {
         }
         Command::Perf {
             scene,
+            params: scene_params,
             spp,
             max_depth,
             csv,
@@ -424,7 +433,7 @@ fn run_command(command: Command) -> Result<Status> {
                 }
                 return Ok(Status::Success);
             }
-            let mut scene = load_scene(&scene)?;
+            let mut scene = scene_source(scene, &scene_params)?.load()?;
             if let Some(kinds) = strategies {
                 photon_bench::perf::strategies::downscale(&mut scene, downscale);
                 let registry = photon_bench::strategy::Registry::builtin();
@@ -641,4 +650,21 @@ fn print_throughputs(rows: &[photon_bench::perf::StrategyThroughput], repeats: u
             r.counters_per_s.replace(';', "  ")
         );
     }
+}
+
+/// A scene file with `--param NAME=VALUE` arguments.
+fn scene_source(file: PathBuf, params: &[String]) -> Result<photon_bench::scene::load::SceneSource> {
+    let params = params
+        .iter()
+        .map(|p| {
+            p.split_once('=')
+                .map(|(k, v)| (k.trim().to_string(), v.to_string()))
+                .ok_or_else(|| Error::new(format!("--param: expected NAME=VALUE, got {p:?}")))
+        })
+        .collect::<Result<_>>()?;
+    Ok(photon_bench::scene::load::SceneSource {
+        file,
+        params,
+        name: None,
+    })
 }

@@ -192,6 +192,28 @@ pub fn cpu_model() -> String {
         .unwrap_or_else(|| "unknown".to_string())
 }
 
+/// A label as used in file names: characters outside letters, digits, `-`, `_` and `.` become
+/// `-`, runs of `-` one, and none at the end (`path[max_depth=4]` → `path-max_depth-4`).
+pub fn file_stem(label: &str) -> String {
+    let mapped: String = label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    let mut out = String::with_capacity(mapped.len());
+    for c in mapped.chars() {
+        if !(c == '-' && out.ends_with('-')) {
+            out.push(c);
+        }
+    }
+    out.trim_end_matches('-').to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1215,3 +1215,19 @@ fn perf_suite_measures_an_experiment_and_compare_flags_a_slowdown() {
     let o = bench(root, &["compare", "--perf", "base.csv", "bad.csv"]);
     assert_refused(&o, &["bad.csv", "bench perf --csv"]);
 }
+
+/// `--param NAME=VALUE` is for Mitsuba scenes: on a TOML scene, or without `=`, it is refused
+/// in one line and nothing is written.
+#[test]
+fn scene_parameters_on_the_command_line_are_checked() {
+    let dir = project();
+    let root = dir.path();
+    let o = bench(
+        root,
+        &["reference", "scenes/tiny.toml", "--spp", "1", "--param", "fov=30"],
+    );
+    assert_refused(&o, &["tiny.toml", "\"fov\"", "Mitsuba XML"]);
+    let o = bench(root, &["reference", "scenes/tiny.toml", "--spp", "1", "--param", "fov"]);
+    assert_refused(&o, &["--param", "NAME=VALUE"]);
+    assert!(!root.join("references").exists());
+}

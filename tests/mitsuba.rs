@@ -624,3 +624,60 @@ fn bad_includes_are_refused_naming_the_file() {
         }
     }
 }
+
+/// Scene parameters set from outside stand for `$name` over the scene's `<default>`, enter
+/// the content hash and the default name (`s-fov-30`); a parameter the scene does not use, a
+/// parameter of a TOML scene and a malformed name are refused in one line.
+#[test]
+fn scene_parameters_override_defaults_and_name_the_scene() {
+    use photon_bench::scene::load::SceneSource;
+    let dir = write_files(&[("s.xml", &scene_xml(LIGHT))]);
+    let file = dir.path().join("s.xml");
+    let plain = SceneSource::file(&file).load_with_stats().unwrap().0;
+    let source = |params: &[(&str, &str)]| SceneSource {
+        file: file.clone(),
+        params: params.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
+        name: None,
+    };
+    let narrow = source(&[("fov", "30")]).load_with_stats().unwrap().0;
+    let (w, h) = (narrow.camera.width as f32, narrow.camera.height as f32);
+    // Mitsuba's fov is horizontal by default: tan(fov_y / 2) = tan(fov_x / 2) · h / w.
+    let fov_y = |fov_x: f32| 2.0 * ((fov_x.to_radians() / 2.0).tan() * h / w).atan().to_degrees();
+    assert!(
+        (narrow.camera.fov_y_deg - fov_y(30.0)).abs() < 1e-4,
+        "{}",
+        narrow.camera.fov_y_deg
+    );
+    assert!((plain.camera.fov_y_deg - fov_y(60.0)).abs() < 1e-4);
+    assert_eq!((plain.name.as_str(), narrow.name.as_str()), ("s", "s-fov-30"));
+    assert_ne!(plain.content_hash, narrow.content_hash);
+    let named = SceneSource {
+        name: Some("narrow".into()),
+        ..source(&[("fov", "30")])
+    };
+    assert_eq!(named.load_with_stats().unwrap().0.name, "narrow");
+
+    let toml = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ci-tiny.toml");
+    for (src, expected) in [
+        (source(&[("fovv", "30")]), &["s.xml", "\"fovv\"", "no $fovv"][..]),
+        (source(&[("fo-v", "30")]), &["s.xml", "\"fo-v\"", "letters"][..]),
+        (source(&[("fov", "30"), ("fov", "40")]), &["\"fov\"", "twice"][..]),
+        (
+            SceneSource {
+                file: toml,
+                params: vec![("fov".into(), "30".into())],
+                name: None,
+            },
+            &["ci-tiny.toml", "Mitsuba XML"][..],
+        ),
+    ] {
+        let Err(err) = src.load_with_stats() else {
+            panic!("{src:?} loaded");
+        };
+        let err = err.to_string();
+        assert_eq!(err.lines().count(), 1, "{err}");
+        for e in expected {
+            assert!(err.contains(e), "expected `{e}` in `{err}`");
+        }
+    }
+}

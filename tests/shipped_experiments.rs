@@ -18,10 +18,10 @@ fn every_shipped_experiment_file_is_valid() {
         let exp = Experiment::load(&file).unwrap_or_else(|e| panic!("{e}"));
         for scene in &exp.scenes {
             assert!(
-                scene.is_file(),
+                scene.file.is_file(),
                 "{}: scene {} is missing",
                 file.display(),
-                scene.display()
+                scene.file.display()
             );
         }
         for spec in &exp.strategies {

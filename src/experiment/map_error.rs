@@ -27,11 +27,9 @@ use crate::bsdf::TransportMode;
 use crate::color::luminance;
 use crate::error::{Error, Result};
 use crate::experiment::Experiment;
-use crate::experiment::config::scene_stem;
 use crate::geometry::spawn_ray;
 use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::sampling::Rng;
-use crate::scene::load::load_scene;
 use crate::scene::{Scene, SurfaceHit};
 use crate::strategy::mps::{DensityRule, surface_area_in_ball};
 use crate::strategy::path::{BsdfSampling, Direct, Roulette, Walk, trace};
@@ -172,17 +170,17 @@ pub fn run(exp: &Experiment, probes: usize, probe_spp: u32, probe_seed: u64, out
     )
     .map_err(io)?;
     for scene_file in &exp.scenes {
-        let scene = load_scene(scene_file)?;
+        let scene = scene_file.load()?;
         let start = Instant::now();
         let found = gather_probes(&scene, probes, probe_spp, probe_seed)?;
         let interior: Vec<&Probe> = found.iter().filter(|p| p.interior).collect();
         eprintln!(
             "{}: {} probes path traced in {:.1} s",
-            scene_file.display(),
+            scene_file.file.display(),
             found.len(),
             start.elapsed().as_secs_f64()
         );
-        let stem = scene_stem(scene_file);
+        let stem = scene_file.key();
         for spec in exp.strategies.iter().filter(|s| s.runs_on(scene_file)) {
             for &seed in &exp.seeds {
                 let mut strategy = spec.instantiate()?;
@@ -237,7 +235,7 @@ mod tests {
     /// k-nearest estimate's known excess k / (k − 1).
     #[test]
     fn photon_map_lookups_converge_to_path_traced_radiance_at_gather_hits() {
-        let scene = load_scene(std::path::Path::new("scenes/cornell-box.toml")).unwrap();
+        let scene = crate::scene::load_scene(std::path::Path::new("scenes/cornell-box.toml")).unwrap();
         let probes = gather_probes(&scene, 1200, 1024, 5).unwrap();
         assert!(probes.len() > 1150, "gather probes found: {}", probes.len());
         let measure = |photons: u64| {

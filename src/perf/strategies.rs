@@ -110,7 +110,7 @@ pub fn measure_experiment(
         .scenes
         .iter()
         .map(|file| {
-            let mut scene = crate::scene::load::load_scene(file).context(experiment.file.display())?;
+            let mut scene = file.load().context(experiment.file.display())?;
             self::downscale(&mut scene, downscale);
             Ok((file, scene))
         })

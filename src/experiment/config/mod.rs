@@ -4,7 +4,8 @@
 //! ```toml
 //! name = "cornell"                 # results go to <output>/<name>/<run-id>/ (default: file stem)
 //! description = "…"                # optional, copied into the summary
-//! scenes = ["../scenes/cornell-empty.toml"]   # relative to this file
+//! scenes = ["../scenes/cornell-empty.toml"]   # relative to this file; or a table
+//!                                  # { file = "…", params = { … }, name = "…" } (Mitsuba parameters)
 //! spp = [1, 4, 16, 64]             # equal samples: one CSV row per strategy × scene × seed × spp
 //! seconds = [0.5, 2]               # equal time (preparation included); spp, seconds or both
 //! seeds = 2                        # independent runs, seeds base_seed … base_seed + seeds − 1
@@ -55,6 +56,7 @@ mod tests;
 pub use strategies::*;
 
 use crate::error::{Error, Result};
+use crate::scene::load::SceneSource;
 use crate::strategy::Registry;
 use crate::util::join_clean;
 use serde::Deserialize;
@@ -75,7 +77,7 @@ pub const MAX_SEEDS: u32 = 1000;
 struct ExperimentFile {
     name: Option<String>,
     description: Option<String>,
-    scenes: Vec<String>,
+    scenes: Vec<toml::Value>,
     #[serde(default)]
     spp: Vec<u32>,
     #[serde(default)]
@@ -105,7 +107,8 @@ pub struct Experiment {
     pub text: String,
     pub name: String,
     pub description: String,
-    pub scenes: Vec<PathBuf>,
+    /// The scenes, each a file with (for Mitsuba XML scenes) its parameters and a name.
+    pub scenes: Vec<SceneSource>,
     /// Equal-samples checkpoints, ascending and unique (may be empty).
     pub spp: Vec<u32>,
     /// Equal-time checkpoints in seconds of preparation + rendering, ascending and unique (may
@@ -189,8 +192,22 @@ impl Experiment {
         if raw.strategies.is_empty() {
             return Err(at("strategy: expected at least one [[strategy]] table".into()));
         }
-        let scene_files: Vec<PathBuf> = raw.scenes.iter().map(|s| join_clean(dir, s)).collect();
-        let stems: Vec<String> = scene_files.iter().map(|f| scene_stem(f)).collect();
+        let scene_files: Vec<SceneSource> = raw
+            .scenes
+            .iter()
+            .enumerate()
+            .map(|(i, v)| scene_source(dir, v).map_err(|e| at(format!("scenes[{i}]{e}"))))
+            .collect::<Result<_>>()?;
+        let stems: Vec<String> = scene_files.iter().map(SceneSource::key).collect();
+        if let Some(k) = stems
+            .iter()
+            .enumerate()
+            .find_map(|(i, k)| stems[..i].contains(k).then_some(k))
+        {
+            return Err(at(format!(
+                "scenes: two scenes are named `{k}`; give one of them its own `name`"
+            )));
+        }
         let mut strategies: Vec<StrategySpec> = Vec::new();
         for (i, mut table) in raw.strategies.into_iter().enumerate() {
             let (own_spp, own_seconds) =
@@ -247,23 +264,71 @@ impl Experiment {
 
 /// See [`StrategySpec::file_stem`].
 pub fn file_stem(label: &str) -> String {
-    let mapped: String = label
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
-                c
-            } else {
-                '-'
+    crate::util::file_stem(label)
+}
+
+/// One entry of `scenes`: a file name (relative to the experiment file), or a table
+/// `{ file = "…", params = { name = value, … }, name = "…" }` setting a Mitsuba scene's
+/// parameters (numbers, booleans, strings, or lists of numbers written as Mitsuba writes
+/// them: `"1, 0, 0"`) and naming the result. Errors start with the field path after
+/// `scenes[i]`.
+fn scene_source(dir: &Path, value: &toml::Value) -> std::result::Result<SceneSource, String> {
+    let expected = "expected a scene file name or a table { file = \"…\", params = { … }, name = \"…\" }";
+    match value {
+        toml::Value::String(file) => Ok(SceneSource::file(join_clean(dir, file))),
+        toml::Value::Table(t) => {
+            if let Some(k) = t.keys().find(|k| !["file", "params", "name"].contains(&k.as_str())) {
+                return Err(format!(".{k}: unknown key; {expected}"));
             }
-        })
-        .collect();
-    let mut out = String::with_capacity(mapped.len());
-    for c in mapped.chars() {
-        if !(c == '-' && out.ends_with('-')) {
-            out.push(c);
+            let file = t
+                .get("file")
+                .and_then(toml::Value::as_str)
+                .ok_or_else(|| format!(".file: {expected}"))?;
+            let name = match t.get("name") {
+                None => None,
+                Some(toml::Value::String(n)) if !n.is_empty() && crate::util::file_stem(n) == *n => Some(n.clone()),
+                Some(n) => return Err(format!(".name: expected letters, digits, '-', '_' or '.', got {n}")),
+            };
+            let params = match t.get("params") {
+                None => Vec::new(),
+                Some(toml::Value::Table(p)) => p
+                    .iter()
+                    .map(|(k, v)| {
+                        param_text(v).map(|v| (k.clone(), v)).ok_or_else(|| {
+                            format!(".params.{k}: expected a number, boolean, string or list of numbers, got {v}")
+                        })
+                    })
+                    .collect::<std::result::Result<_, _>>()?,
+                Some(v) => return Err(format!(".params: expected a table of parameters, got {v}")),
+            };
+            Ok(SceneSource {
+                file: join_clean(dir, file),
+                params,
+                name,
+            })
         }
+        v => Err(format!(": {expected}, got {v}")),
     }
-    out.trim_end_matches('-').to_string()
+}
+
+/// A parameter value as the text `$name` stands for.
+fn param_text(v: &toml::Value) -> Option<String> {
+    match v {
+        toml::Value::String(s) => Some(s.clone()),
+        toml::Value::Integer(i) => Some(i.to_string()),
+        toml::Value::Float(f) if f.is_finite() => Some(f.to_string()),
+        toml::Value::Boolean(b) => Some(b.to_string()),
+        toml::Value::Array(a) => a
+            .iter()
+            .map(|x| match x {
+                toml::Value::Integer(i) => Some(i.to_string()),
+                toml::Value::Float(f) if f.is_finite() => Some(f.to_string()),
+                _ => None,
+            })
+            .collect::<Option<Vec<_>>>()
+            .map(|v| v.join(", ")),
+        _ => None,
+    }
 }
 
 /// The name a scene file is known by in `scenes = [...]` of a strategy: its file stem.

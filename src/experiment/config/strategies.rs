@@ -5,7 +5,6 @@
 use super::*;
 use crate::error::Result;
 use crate::strategy::{Registration, Registry, Strategy};
-use std::path::Path;
 
 /// One strategy of an experiment: one combination of a `[[strategy]]` table's swept values.
 #[derive(Debug, Clone)]
@@ -31,9 +30,9 @@ pub struct StrategySpec {
 }
 
 impl StrategySpec {
-    /// Does this strategy run on the scene loaded from `scene_file`?
-    pub fn runs_on(&self, scene_file: &Path) -> bool {
-        self.scenes.is_empty() || self.scenes.iter().any(|s| *s == scene_stem(scene_file))
+    /// Does this strategy run on the experiment's scene `scene`?
+    pub fn runs_on(&self, scene: &crate::scene::load::SceneSource) -> bool {
+        self.scenes.is_empty() || self.scenes.iter().any(|s| *s == scene.key())
     }
 
     /// A fresh strategy object for one run.

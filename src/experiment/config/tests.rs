@@ -17,7 +17,7 @@ fn valid_file_is_normalised() {
     assert_eq!(e.spp, vec![1, 4]);
     assert_eq!(e.seeds, vec![0, 1]);
     assert_eq!(e.strategies[0].label, "path");
-    assert_eq!(e.scenes[0], Path::new("scenes/a.toml"));
+    assert_eq!(e.scenes[0], SceneSource::file("scenes/a.toml"));
 }
 
 #[test]
@@ -37,8 +37,10 @@ fn a_strategy_may_run_on_some_scenes_only() {
         [[strategy]]\nkind = \"path\"\nlabel = \"only-b\"\nscenes = [\"b\"]\n";
     let e = parse(text).unwrap();
     let (all, only_b) = (&e.strategies[0], &e.strategies[1]);
-    assert!(all.runs_on(Path::new("scenes/a.toml")) && all.runs_on(Path::new("scenes/b.toml")));
-    assert!(!only_b.runs_on(Path::new("scenes/a.toml")) && only_b.runs_on(Path::new("scenes/b.toml")));
+    assert!(all.runs_on(&SceneSource::file("scenes/a.toml")) && all.runs_on(&SceneSource::file("scenes/b.toml")));
+    assert!(
+        !only_b.runs_on(&SceneSource::file("scenes/a.toml")) && only_b.runs_on(&SceneSource::file("scenes/b.toml"))
+    );
     assert!(
         !only_b.params.contains_key("scenes"),
         "scenes is not a strategy parameter"
@@ -222,5 +224,56 @@ fn bad_files_name_the_field() {
         assert!(err.starts_with("experiments/x.toml: "), "{err}");
         assert!(err.contains(expected), "expected `{expected}` in `{err}`");
         assert!(!err.contains('\n'), "one line: {err}");
+    }
+}
+
+/// `scenes` entries may be tables that set a Mitsuba scene's parameters and name it; the
+/// names strategies' `scenes` refer to are those names; two entries with one name, unknown
+/// keys and values that are not parameters are refused, naming the entry.
+#[test]
+fn scene_entries_with_parameters_and_names() {
+    let text = r#"
+scenes = ["../scenes/a.xml", { file = "../scenes/a.xml", params = { roughness = 0.1, albedo = [0.5, 1], on = true } }, { file = "../scenes/a.xml", params = { roughness = "0.3" }, name = "rough" }]
+spp = [1]
+[[strategy]]
+kind = "path"
+scenes = ["rough", "a-albedo-0.5-1-on-true-roughness-0.1"]
+"#;
+    let e = parse(text).unwrap();
+    assert_eq!(e.scenes[0], SceneSource::file("scenes/a.xml"));
+    let params: Vec<(&str, &str)> = e.scenes[1]
+        .params
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.as_str()))
+        .collect();
+    assert_eq!(params, [("albedo", "0.5, 1"), ("on", "true"), ("roughness", "0.1")]);
+    let keys: Vec<String> = e.scenes.iter().map(SceneSource::key).collect();
+    assert_eq!(keys, ["a", "a-albedo-0.5-1-on-true-roughness-0.1", "rough"]);
+    let spec = &e.strategies[0];
+    assert_eq!(
+        e.scenes.iter().map(|s| spec.runs_on(s)).collect::<Vec<_>>(),
+        [false, true, true]
+    );
+
+    for (scenes, expected) in [
+        (
+            r#"["../scenes/a.xml", { file = "../scenes/b.xml", name = "a" }]"#,
+            "scenes: two scenes are named `a`",
+        ),
+        (
+            r#"[{ file = "../scenes/a.xml", size = 2 }]"#,
+            "scenes[0].size: unknown key",
+        ),
+        (r#"[{ params = {} }]"#, "scenes[0].file"),
+        (
+            r#"[{ file = "a.xml", params = { x = { y = 1 } } }]"#,
+            "scenes[0].params.x",
+        ),
+        (r#"[{ file = "a.xml", name = "a/b" }]"#, "scenes[0].name"),
+        (r#"[3]"#, "scenes[0]: expected a scene file name"),
+    ] {
+        let text = format!("scenes = {scenes}\nspp = [1]\n[[strategy]]\nkind = \"path\"\n");
+        let err = parse(&text).unwrap_err().to_string();
+        assert!(err.contains(expected), "expected `{expected}` in `{err}`");
     }
 }

@@ -41,14 +41,14 @@ use super::config::{Experiment, StrategySpec};
 use super::reference::{self, Reference};
 use crate::error::{Context, Result};
 use crate::report::rows::write_csv;
-use crate::scene::{Scene, load_scene};
+use crate::scene::Scene;
 use progress::Progress;
 use std::path::{Path, PathBuf};
 
 /// A scene with its reference, loaded and checked.
 struct Prepared {
-    /// The scene file, as the experiment names it.
-    file: PathBuf,
+    /// The scene, as the experiment names it.
+    file: crate::scene::load::SceneSource,
     scene: Scene,
     reference: Reference,
 }
@@ -68,7 +68,7 @@ pub struct Outcome {
 fn prepare_all(exp: &Experiment) -> Result<Vec<Prepared>> {
     let mut prepared = Vec::new();
     for path in &exp.scenes {
-        let scene = load_scene(path)?;
+        let scene = path.load()?;
         let reference = reference::load(&exp.references, &scene)?;
         prepared.push(Prepared {
             file: path.clone(),

@@ -71,7 +71,70 @@ pub struct LoadStats {
 /// Loads and validates a scene file. Skipped degenerate mesh triangles are reported on stderr;
 /// use [`load_scene_with_stats`] to handle them yourself.
 pub fn load_scene(path: &Path) -> Result<Scene> {
-    let (scene, stats) = load_scene_with_stats(path)?;
+    SceneSource::file(path).load()
+}
+
+/// Loads and validates a scene file, and says what it skipped.
+pub fn load_scene_with_stats(path: &Path) -> Result<(Scene, LoadStats)> {
+    let bytes = crate::util::read_input(path, "scene file", crate::util::MAX_TEXT_INPUT)?;
+    load_scene_bytes(path, &bytes)
+}
+
+/// A scene as an experiment or a command names it: a file, the scene parameters to set (a
+/// Mitsuba scene's `$name`s, as `mitsuba -D name=value`) and the name to know it by.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SceneSource {
+    pub file: PathBuf,
+    /// `(name, value)` in the order given; each must be used by the scene.
+    pub params: Vec<(String, String)>,
+    /// The scene's name (labels rows, names references and images); default: the scene's own
+    /// name, and with parameters its file stem followed by them (`veach-mis` with
+    /// `roughness = 0.1` is `veach-mis-roughness-0.1`).
+    pub name: Option<String>,
+}
+
+impl SceneSource {
+    /// The file alone, as it is.
+    pub fn file(file: impl Into<PathBuf>) -> Self {
+        Self {
+            file: file.into(),
+            ..Self::default()
+        }
+    }
+
+    /// The name the scene will have when loaded without its own `name`: for strategies'
+    /// `scenes = [...]` and messages before loading.
+    pub fn key(&self) -> String {
+        if let Some(name) = &self.name {
+            return name.clone();
+        }
+        let stem = self
+            .file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if self.params.is_empty() {
+            stem
+        } else {
+            let params: Vec<String> = self.params.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            crate::util::file_stem(&format!("{stem}[{}]", params.join(",")))
+        }
+    }
+
+    pub fn load(&self) -> Result<Scene> {
+        let (scene, stats) = self.load_with_stats()?;
+        report_stats(&self.file, &stats);
+        Ok(scene)
+    }
+
+    pub fn load_with_stats(&self) -> Result<(Scene, LoadStats)> {
+        let bytes = crate::util::read_input(&self.file, "scene file", crate::util::MAX_TEXT_INPUT)?;
+        load_source_bytes(self, &bytes)
+    }
+}
+
+/// Prints loading's warnings and skipped triangles on stderr.
+fn report_stats(path: &Path, stats: &LoadStats) {
     for w in &stats.warnings {
         eprintln!("warning: {w}");
     }
@@ -82,18 +145,17 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
             stats.degenerate_triangles_skipped
         );
     }
-    Ok(scene)
-}
-
-/// Loads and validates a scene file, and says what it skipped.
-pub fn load_scene_with_stats(path: &Path) -> Result<(Scene, LoadStats)> {
-    let bytes = crate::util::read_input(path, "scene file", crate::util::MAX_TEXT_INPUT)?;
-    load_scene_bytes(path, &bytes)
 }
 
 /// Loads a scene from its bytes; `path` names it in messages, gives the default name and
 /// anchors relative mesh paths.
 pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)> {
+    load_source_bytes(&SceneSource::file(path), bytes)
+}
+
+/// [`load_scene_bytes`] for a [`SceneSource`]: its parameters and name apply.
+pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, LoadStats)> {
+    let path = source.file.as_path();
     let ctx = Ctx {
         file: path.display().to_string(),
     };
@@ -107,13 +169,17 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
     // Mitsuba scenes become the same description; only how shapes are named in errors and
     // the warnings differ. The hash below covers the XML bytes and meshes as for TOML.
     let (desc, shape_labels, warnings, included) = if is_mitsuba(path) {
-        let imported = super::mitsuba::import(&ctx.file, &dir, text)?;
+        let imported = super::mitsuba::import_with(&ctx.file, &dir, text, &source.params)?;
         (
             imported.desc,
             Some(imported.shape_labels),
             imported.warnings,
             imported.included,
         )
+    } else if let Some((name, _)) = source.params.first() {
+        return Err(ctx.whole(format!(
+            "parameter {name:?}: scene parameters apply to Mitsuba XML scenes (`$name`), not to TOML scenes"
+        )));
     } else {
         (parse_desc(&ctx, text)?, None, Vec::new(), Vec::new())
     };
@@ -129,10 +195,14 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
             ..LoadStats::default()
         },
     };
-    // Included Mitsuba files are part of the scene's content, as meshes are.
+    // Included Mitsuba files are part of the scene's content, as meshes are; so are the
+    // parameters set from outside.
     for (file, bytes) in included {
         b.hashed.push(bytes);
         b.stats.files_read.push(file);
+    }
+    for (name, value) in &source.params {
+        b.hashed.push(format!("param {name}={value}").into_bytes());
     }
     let camera = camera(&ctx, &desc.camera)?;
     let (materials, material_index) = materials(&ctx, &desc.materials)?;
@@ -155,7 +225,8 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
     }
     let user_paths = user_paths(&ctx, &desc.user_paths, &b.primitives, &b.attrs)?;
 
-    if let Some(name) = &desc.name
+    let explicit = source.name.clone().or_else(|| desc.name.clone());
+    if let Some(name) = &explicit
         && !is_file_name_safe(name)
     {
         // The name labels result rows and becomes part of file names (`references/<name>.exr`,
@@ -168,9 +239,9 @@ pub fn load_scene_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, LoadStats)>
             ),
         ));
     }
-    let name = desc.name.clone().unwrap_or_else(|| {
-        path.file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
+    let name = explicit.unwrap_or_else(|| {
+        Some(source.key())
+            .filter(|k| !k.is_empty())
             .unwrap_or_else(|| "scene".to_string())
     });
     let parts: Vec<&[u8]> = b.hashed.iter().map(Vec::as_slice).collect();

@@ -12,6 +12,7 @@
 //! | Mitsuba 3 | photon-bench |
 //! |---|---|
 //! | `<default name value>`, `$name` in any attribute | substituted before anything is read; an undefined `$name` is an error; a default already given (by an including file) stands |
+//! | parameters from outside ([`import_with`]: `--param`, an experiment's `params`) | `$name` stands for them over any `<default>`; one the scene never uses is an error |
 //! | `<include filename>` (top level) | the included file's `<scene>` elements, read in its place with this scene's defaults and named BSDFs; its bytes join the content hash; cycles and nesting beyond 16 files are errors |
 //! | `<path value>` (top level) | a directory (relative to the file) where relative file names — OBJ files, includes — are looked up first, the latest `<path>` first, before the file's own directory |
 //! | `<bsdf id>` at the top level, `<ref id>` in a shape | a material named by the id |
@@ -132,8 +133,29 @@ const MAX_INCLUDE_DEPTH: usize = 16;
 /// Reads a Mitsuba 3 XML scene. `file` names it in messages; `dir` anchors relative paths
 /// (OBJ files, `<include>`s, `<path>`s).
 pub fn import(file: &str, dir: &Path, text: &str) -> Result<Imported> {
+    import_with(file, dir, text, &[])
+}
+
+/// [`import`] with scene parameters given from outside (`bench … --param name=value`, an
+/// experiment's `params`), as `mitsuba -D name=value` or `mi.load_file(…, name=value)`: each
+/// stands for `$name` over any `<default>` of the scene. A parameter the scene never uses
+/// is an error (a misspelt name would otherwise change nothing silently).
+pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String)]) -> Result<Imported> {
     let doc = Document::parse(text).map_err(|e| Error::new(format!("{file}: XML syntax error: {e}")))?;
+    let mut defaults = BTreeMap::new();
+    for (name, value) in params {
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(Error::new(format!(
+                "{file}: parameter {name:?}: expected a name of letters, digits and '_'"
+            )));
+        }
+        if defaults.insert(name.clone(), value.clone()).is_some() {
+            return Err(Error::new(format!("{file}: parameter {name:?} is given twice")));
+        }
+    }
+    let used = std::cell::RefCell::new(std::collections::BTreeSet::new());
     let mut r = Reader {
+        used: &used,
         file,
         doc: &doc,
         dir,
@@ -141,12 +163,18 @@ pub fn import(file: &str, dir: &Path, text: &str) -> Result<Imported> {
         including: vec![
             std::fs::canonicalize(dir.join(Path::new(file).file_name().unwrap_or_default())).unwrap_or_default(),
         ],
-        defaults: BTreeMap::new(),
+        defaults,
         warnings: Vec::new(),
         materials: BTreeMap::new(),
         bsdf_ids: BTreeMap::new(),
     };
-    r.scene(doc.root_element())
+    let imported = r.scene(doc.root_element())?;
+    if let Some((name, _)) = params.iter().find(|(name, _)| !used.borrow().contains(name)) {
+        return Err(Error::new(format!(
+            "{file}: parameter {name:?}: the scene has no ${name} (its parameters are the names it writes as $name)"
+        )));
+    }
+    Ok(imported)
 }
 
 /// What the top-level elements of a scene and of the files it includes add up to.
@@ -167,6 +195,8 @@ struct Obj<'a, 'i> {
 }
 
 struct Reader<'a, 'i> {
+    /// Every `$name` substituted so far (in this file and the files it includes).
+    used: &'a std::cell::RefCell<std::collections::BTreeSet<String>>,
     file: &'a str,
     doc: &'a Document<'i>,
     dir: &'a Path,
@@ -233,6 +263,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 ));
             };
             out.push_str(value);
+            self.used.borrow_mut().insert(name.to_string());
             rest = &after[len..];
         }
         out.push_str(rest);
@@ -439,6 +470,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         let mut including = std::mem::take(&mut self.including);
         including.push(canonical);
         let mut inner = Reader {
+            used: self.used,
             file: &file,
             doc: &doc,
             dir: &dir,
