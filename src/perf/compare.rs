@@ -12,7 +12,7 @@
 //! own spreads join the tolerance; the raw ratio is printed beside it. Runs on one machine are
 //! compared raw. Side-by-side runs of two builds on one machine remain the sharper test.
 
-use super::strategies::StrategyThroughput;
+use super::strategies::{CALIBRATION, StrategyThroughput};
 use crate::error::{Context, Result};
 use std::path::Path;
 
@@ -21,9 +21,6 @@ pub const FLOOR: f64 = 0.08;
 
 /// Preparation medians below this many seconds are timer noise and not judged.
 const MIN_PREPARE_S: f64 = 0.02;
-
-/// The label of the machine calibration row (see [`calibration`]).
-pub const CALIBRATION: &str = "machine-calibration";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Verdict {
@@ -259,64 +256,9 @@ pub fn table(c: &PerfComparison) -> String {
     out
 }
 
-/// One measurement of the machine calibration, in steps per second: a fixed arithmetic
-/// workload (xoshiro256++ uniform floats, square roots and a running sum; 64 tasks on the
-/// thread pool). Its rate stands for the machine's clock × cores × thread count, so that a
-/// committed baseline can be read on another machine. It does not move with anything in the
-/// renderer; it does not capture memory bandwidth or SIMD width either, so cross-machine
-/// verdicts are approximate and the table says so.
-pub fn calibration_rate() -> f64 {
-    use rayon::prelude::*;
-    const TASKS: u64 = 64;
-    const STEPS: u64 = 1 << 18;
-    let start = std::time::Instant::now();
-    let sum = (0..TASKS)
-        .into_par_iter()
-        .map(|t| {
-            let mut rng = crate::sampling::Rng::for_task(t, [0, 0, 0]);
-            let mut acc = 0.0f32;
-            for _ in 0..STEPS {
-                let x = rng.uniform();
-                acc += (x * x + 0.5).sqrt();
-            }
-            acc
-        })
-        .sum::<f32>();
-    std::hint::black_box(sum);
-    (TASKS * STEPS) as f64 / start.elapsed().as_secs_f64()
-}
-
-/// The calibration row of a perf CSV from its measurements (median and range, in the
-/// pixel-samples columns).
-pub fn calibration_row(mut rates: Vec<f64>) -> StrategyThroughput {
-    if rates.is_empty() {
-        rates.push(calibration_rate());
-    }
-    rates.sort_by(f64::total_cmp);
-    StrategyThroughput {
-        scene: "-".into(),
-        width: 0,
-        height: 0,
-        label: CALIBRATION.into(),
-        strategy: "-".into(),
-        params: "{}".into(),
-        threads: rayon::current_num_threads(),
-        prepare_s: 0.0,
-        prepare_s_min: 0.0,
-        prepare_s_max: 0.0,
-        samples: 0,
-        repeats: rates.len() as u32,
-        pixel_samples_per_s: rates[rates.len() / 2],
-        pixel_samples_per_s_min: rates[0],
-        pixel_samples_per_s_max: rates[rates.len() - 1],
-        counters_per_s: String::new(),
-        cpu: crate::util::cpu_model(),
-        git_revision: crate::util::git_revision(),
-    }
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::strategies::{calibration_rate, calibration_row};
     use super::*;
 
     fn row(label: &str, rate: f64, spread: f64, cpu: &str) -> StrategyThroughput {

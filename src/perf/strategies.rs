@@ -159,7 +159,7 @@ struct Repeat {
 }
 
 /// Every case `repeats` times, in rounds (every case once per round, and the machine
-/// calibration of [`super::compare::calibration`] at the start of each), so that each case's
+/// calibration of [`calibration_rate`] at the start of each), so that each case's
 /// spread covers the slow drift of the machine over the whole measurement, not a moment of
 /// it. The calibration row comes last.
 fn measure_cases(
@@ -170,8 +170,8 @@ fn measure_cases(
     let mut runs: Vec<Vec<Repeat>> = cases.iter().map(|_| Vec::new()).collect();
     let mut calibration = Vec::new();
     for _ in 0..repeats.max(1) {
-        progress("-", super::compare::CALIBRATION);
-        calibration.push(super::compare::calibration_rate());
+        progress("-", CALIBRATION);
+        calibration.push(calibration_rate());
         for (case, runs) in cases.iter().zip(&mut runs) {
             progress(&case.scene.name, case.label);
             runs.push(measure_repeat(case)?);
@@ -182,7 +182,7 @@ fn measure_cases(
         .zip(runs)
         .map(|(case, runs)| summarize(case, runs))
         .collect();
-    rows.push(super::compare::calibration_row(calibration));
+    rows.push(calibration_row(calibration));
     Ok(rows)
 }
 
@@ -245,6 +245,65 @@ fn summarize(case: &Case, mut runs: Vec<Repeat>) -> StrategyThroughput {
         pixel_samples_per_s_min: rate(&runs[runs.len() - 1]),
         pixel_samples_per_s_max: rate(&runs[0]),
         counters_per_s,
+        cpu: crate::util::cpu_model(),
+        git_revision: crate::util::git_revision(),
+    }
+}
+
+/// The label of the machine calibration row (see [`calibration_rate`]).
+pub const CALIBRATION: &str = "machine-calibration";
+
+/// One measurement of the machine calibration, in steps per second: a fixed arithmetic
+/// workload (xoshiro256++ uniform floats, square roots and a running sum; 64 tasks on the
+/// thread pool). Its rate stands for the machine's clock × cores × thread count, so that a
+/// committed baseline can be read on another machine. It does not move with anything in the
+/// renderer; it does not capture memory bandwidth or SIMD width either, so cross-machine
+/// verdicts are approximate and the table says so.
+pub fn calibration_rate() -> f64 {
+    use rayon::prelude::*;
+    const TASKS: u64 = 64;
+    const STEPS: u64 = 1 << 18;
+    let start = std::time::Instant::now();
+    let sum = (0..TASKS)
+        .into_par_iter()
+        .map(|t| {
+            let mut rng = crate::sampling::Rng::for_task(t, [0, 0, 0]);
+            let mut acc = 0.0f32;
+            for _ in 0..STEPS {
+                let x = rng.uniform();
+                acc += (x * x + 0.5).sqrt();
+            }
+            acc
+        })
+        .sum::<f32>();
+    std::hint::black_box(sum);
+    (TASKS * STEPS) as f64 / start.elapsed().as_secs_f64()
+}
+
+/// The calibration row of a perf CSV from its measurements (median and range, in the
+/// pixel-samples columns).
+pub fn calibration_row(mut rates: Vec<f64>) -> StrategyThroughput {
+    if rates.is_empty() {
+        rates.push(calibration_rate());
+    }
+    rates.sort_by(f64::total_cmp);
+    StrategyThroughput {
+        scene: "-".into(),
+        width: 0,
+        height: 0,
+        label: CALIBRATION.into(),
+        strategy: "-".into(),
+        params: "{}".into(),
+        threads: rayon::current_num_threads(),
+        prepare_s: 0.0,
+        prepare_s_min: 0.0,
+        prepare_s_max: 0.0,
+        samples: 0,
+        repeats: rates.len() as u32,
+        pixel_samples_per_s: rates[rates.len() / 2],
+        pixel_samples_per_s_min: rates[0],
+        pixel_samples_per_s_max: rates[rates.len() - 1],
+        counters_per_s: String::new(),
         cpu: crate::util::cpu_model(),
         git_revision: crate::util::git_revision(),
     }
