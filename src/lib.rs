@@ -33,6 +33,7 @@ pub mod report;
 pub mod resources;
 pub mod sampling;
 pub mod scene;
+pub mod spectrum;
 pub mod strategy;
 pub mod util;
 

@@ -681,3 +681,79 @@ fn scene_parameters_override_defaults_and_name_the_scene() {
         }
     }
 }
+
+/// Spectra read as Mitsuba 3's RGB variants read them: wavelength:value pairs for a
+/// reflectance (D65-weighted) and for a radiance (not), the same pairs from an `.spd` file,
+/// and a blackbody radiance; the reflectance values are those Mitsuba 3.9.1 gives for the same
+/// spectrum (`mi.spectrum_list_to_srgb`, see `photon_bench::spectrum`'s tests).
+#[test]
+fn spectra_become_the_rgb_mitsuba_gives() {
+    let pairs = "400:0.1, 450:0.9, 520:0.3, 610:0.7, 700:0.2";
+    let body = format!(
+        r#"<bsdf type="twosided" id="a"><bsdf type="diffuse"><spectrum name="reflectance" value="{pairs}"/></bsdf></bsdf>
+    <bsdf type="twosided" id="b"><bsdf type="diffuse"><spectrum name="reflectance" filename="r.spd"/></bsdf></bsdf>
+    <shape type="sphere"><ref id="a"/><emitter type="area"><spectrum name="radiance" value="360:1, 830:1"/></emitter></shape>
+    <shape type="sphere"><point name="center" x="3" y="0" z="0"/><ref id="b"/>
+        <emitter type="area"><spectrum name="radiance" type="blackbody"><float name="temperature" value="3000"/></spectrum></emitter></shape>"#
+    );
+    let spd = "# wavelength (nm) value\n400 0.1\n450 0.9\n520 0.3\n610 0.7\n700 0.2\n";
+    let dir = write_files(&[("s.xml", &scene_xml(&body)), ("r.spd", spd)]);
+    let (scene, stats) = load_scene_with_stats(&dir.path().join("s.xml")).unwrap();
+    assert!(stats.warnings.is_empty(), "{:?}", stats.warnings);
+    let reflectance = |name: &str| match &scene.materials.iter().find(|m| m.name == name).unwrap().bsdf {
+        photon_bench::bsdf::Bsdf::Lambertian(l) => l.reflectance,
+        other => panic!("{other:?}"),
+    };
+    let mitsuba = Vec3::new(0.681578, 0.412557, 0.730574);
+    for name in ["a", "b"] {
+        assert!(
+            (reflectance(name) - mitsuba).abs().max_element() < 2e-5,
+            "{name}: {}",
+            reflectance(name)
+        );
+    }
+    let le: Vec<Vec3> = scene.attrs.iter().filter_map(|a| a.emission.map(|e| e.le)).collect();
+    assert!(
+        (le[0] - Vec3::new(1.20488, 0.948229, 0.909267)).abs().max_element() < 3e-5,
+        "{}",
+        le[0]
+    );
+    let blackbody = photon_bench::spectrum::blackbody_to_srgb(3000.0).as_vec3();
+    assert_eq!(le[1], blackbody);
+    assert!(
+        blackbody.x > blackbody.y && blackbody.y > blackbody.z,
+        "3000 K is reddish: {blackbody}"
+    );
+
+    for (spectrum, expected) in [
+        (
+            r#"<spectrum name="reflectance" value="500:0.5"/>"#,
+            "at least two pairs",
+        ),
+        (
+            r#"<spectrum name="reflectance" value="500:0.5, 400:0.2"/>"#,
+            "strictly increasing",
+        ),
+        (r#"<spectrum name="reflectance" value="500:x, 600:0.2"/>"#, "finite"),
+        (
+            r#"<spectrum name="reflectance" type="blackbody"><float name="temperature" value="3000"/></spectrum>"#,
+            "emitted spectrum",
+        ),
+        (
+            r#"<spectrum name="reflectance" type="d65"/>"#,
+            "unsupported spectrum type",
+        ),
+        (r#"<spectrum name="reflectance" filename="none.spd"/>"#, "cannot read"),
+    ] {
+        let body = format!("{LIGHT}<shape type=\"sphere\"><bsdf type=\"diffuse\">{spectrum}</bsdf></shape>");
+        let dir = write_files(&[("s.xml", &scene_xml(&body))]);
+        let Err(err) = load_scene_with_stats(&dir.path().join("s.xml")) else {
+            panic!("{spectrum} loaded");
+        };
+        let err = err.to_string();
+        assert!(
+            err.lines().count() == 1 && err.contains("<spectrum") && err.contains(expected),
+            "{spectrum}: {err}"
+        );
+    }
+}

@@ -31,8 +31,11 @@
 //! | a shape without a BSDF | Mitsuba's default, `diffuse` 0.5 (one-sided: warned) |
 //! | `emitter` `area` in a shape: `radiance` | `emission = { radiance, two_sided = false }`: Mitsuba's area lights emit on the front side only, as ours do by default |
 //!
-//! Colours are `rgb` (three numbers, or one for grey), `float`, or a `spectrum` with one number
-//! (a constant spectrum); textures and wavelength lists are errors. Lengths keep their units.
+//! Colours are `rgb` (three numbers, or one for grey), `float`, or a `spectrum`: one number (a
+//! constant spectrum), wavelength:value pairs in `value` or in a `filename` (`.spd`: a pair per
+//! line), or `type="blackbody"` with a `temperature` (emitters only), converted to RGB as
+//! Mitsuba 3's RGB variants convert them ([`crate::spectrum`]: reflectances D65-weighted and
+//! clamped to [0, 1], emission neither). Textures are errors. Lengths keep their units.
 //!
 //! **Transforms.** The operations inside `<transform name="to_world">` apply in document order,
 //! each after the ones before (`M = op · M`): `translate` (`x`, `y`, `z` or `value`),

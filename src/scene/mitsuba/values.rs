@@ -90,8 +90,21 @@ impl<'a, 'i> Reader<'a, 'i> {
             .transpose()
     }
 
-    /// A colour: `rgb` (one or three numbers), `float`, or a `spectrum` holding one number.
-    pub(super) fn colour(&self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<Triple>> {
+    /// A reflectance colour: `rgb` (one or three numbers), `float`, or a `spectrum` — one
+    /// number, wavelength:value pairs, a `filename` of such pairs (`.spd`), or
+    /// `type="blackbody"` — turned into RGB as Mitsuba 3's RGB variants do ([`crate::spectrum`]:
+    /// D65-weighted, clamped to [0, 1] with a warning).
+    pub(super) fn colour(&mut self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<Triple>> {
+        self.colour_as(o, name, true)
+    }
+
+    /// An emitted colour (`radiance`): as [`Reader::colour`], but spectra are converted as
+    /// emission (neither D65-weighted nor clamped).
+    pub(super) fn emitted_colour(&mut self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<Triple>> {
+        self.colour_as(o, name, false)
+    }
+
+    fn colour_as(&mut self, o: &mut Obj<'a, 'i>, name: &str, reflectance: bool) -> Result<Option<Triple>> {
         if let Some(c) = o.children.iter().find(|c| c.attribute("name") == Some(name)) {
             return Err(self.err(
                 *c,
@@ -101,22 +114,96 @@ impl<'a, 'i> Reader<'a, 'i> {
         let Some(p) = self.take(o, name, &["rgb", "float", "spectrum"])? else {
             return Ok(None);
         };
+        if p.has_tag_name("spectrum") && (p.attribute("type").is_some() || p.attribute("filename").is_some()) {
+            return self.spectrum_object(p, reflectance).map(Some);
+        }
         let text = self.required(p, "value")?;
-        if text.contains(':') {
-            return Err(self.err(
-                p,
-                "value: wavelength:value spectra are not supported (photon-bench renders RGB); \
-                 give one number or an <rgb>",
-            ));
+        if p.has_tag_name("spectrum") && text.contains(':') {
+            let points = self.spectrum_pairs(p, "value", &text)?;
+            return Ok(Some(self.spectrum_rgb(p, &points, reflectance)));
         }
         match (p.tag_name().name(), self.numbers(p, "value", &text)?.as_slice()) {
             (_, [v]) => Ok(Some(Fixed([*v; 3]))),
             ("rgb", [r, g, b]) => Ok(Some(Fixed([*r, *g, *b]))),
             _ => Err(self.err(
                 p,
-                format!("value: expected one number or (for <rgb>) three, got {text:?}"),
+                format!("value: expected one number, wavelength:value pairs (for <spectrum>) or three numbers (for <rgb>), got {text:?}"),
             )),
         }
+    }
+
+    /// `<spectrum filename="…">` (pairs in a file) or `<spectrum type="blackbody">` with its
+    /// `temperature` in kelvin.
+    fn spectrum_object(&mut self, p: Node<'a, 'i>, reflectance: bool) -> Result<Triple> {
+        if let Some(file) = self.attr(p, "filename")? {
+            let path = self.resolve(&file);
+            let bytes = crate::util::read_input(&path, "spectrum", crate::util::MAX_TEXT_INPUT)
+                .map_err(|e| self.err(p, format!("filename: cannot read {}: {e}", path.display())))?;
+            let text = String::from_utf8_lossy(&bytes);
+            // One "wavelength value" pair per line; `#` starts a comment.
+            let pairs: Vec<String> = text
+                .lines()
+                .map(|l| l.split('#').next().unwrap_or("").trim())
+                .filter(|l| !l.is_empty())
+                .map(|l| l.split_whitespace().collect::<Vec<_>>().join(":"))
+                .collect();
+            let points = self.spectrum_pairs(p, "filename", &pairs.join(", "))?;
+            return Ok(self.spectrum_rgb(p, &points, reflectance));
+        }
+        match self.attr(p, "type")?.as_deref() {
+            Some("blackbody") => {
+                let mut o = self.obj(p)?;
+                let Some(kelvin) = self.float(&mut o, "temperature")? else {
+                    return Err(self.err(p, "expected <float name=\"temperature\"> in kelvin"));
+                };
+                self.finish(&o)?;
+                if !(kelvin > 0.0 && kelvin <= 1e6) {
+                    return Err(self.err(p, format!("temperature: expected kelvin in (0, 1e6], got {kelvin}")));
+                }
+                if reflectance {
+                    return Err(self.err(p, "a blackbody spectrum is an emitted spectrum: give it to an emitter's radiance"));
+                }
+                Ok(Fixed(crate::spectrum::blackbody_to_srgb(kelvin).to_array()))
+            }
+            other => Err(self.err(
+                p,
+                format!("unsupported spectrum type {other:?} (blackbody, or wavelength:value pairs in `value` or `filename`)"),
+            )),
+        }
+    }
+
+    /// `λ:v, λ:v, …` with wavelengths in nm, strictly increasing, at least two, values finite.
+    fn spectrum_pairs(&self, p: Node, key: &str, text: &str) -> Result<Vec<(f64, f64)>> {
+        let bad = |why: &str| self.err(p, format!("{key}: {why}, got {text:?}"));
+        let points = text
+            .split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .map(|pair| {
+                let (w, v) = pair
+                    .split_once(':')
+                    .ok_or_else(|| bad("expected wavelength:value pairs separated by commas"))?;
+                match (w.trim().parse::<f64>(), v.trim().parse::<f64>()) {
+                    (Ok(w), Ok(v)) if w.is_finite() && v.is_finite() && w > 0.0 => Ok((w, v)),
+                    _ => Err(bad("expected positive finite wavelengths (nm) and finite values")),
+                }
+            })
+            .collect::<Result<Vec<_>>>()?;
+        if points.len() < 2 || points.windows(2).any(|w| w[1].0 <= w[0].0) {
+            return Err(bad("expected at least two pairs with strictly increasing wavelengths"));
+        }
+        Ok(points)
+    }
+
+    fn spectrum_rgb(&mut self, p: Node, points: &[(f64, f64)], reflectance: bool) -> Triple {
+        let (rgb, clamped) = crate::spectrum::list_to_srgb(points, reflectance);
+        if clamped {
+            self.warn(
+                p,
+                "the spectrum's sRGB colour exceeds 1 and is clamped (as Mitsuba does)",
+            );
+        }
+        Fixed(rgb.to_array())
     }
 
     pub(super) fn point(&self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<DVec3>> {
