@@ -134,3 +134,63 @@ fn furnace_holds_for_every_light_sampling_option() {
         }
     }
 }
+
+/// A lossless thin dielectric sheet (filters 1) inside the furnace reflects or passes every
+/// photon and changes nothing: L = Le / (1 − ρ) for path tracing and bidirectional path
+/// tracing, whose paths cross it in both directions and never connect through it (a delta
+/// surface). A sheet that lost or gained energy would move the mean.
+#[test]
+fn a_lossless_thin_dielectric_sheet_keeps_the_furnace() {
+    use photon_bench::bsdf::ThinDielectric;
+    let albedo = 0.5f32;
+    let base = furnace(albedo, 1.0);
+    let mut materials = base.materials.clone();
+    materials.push(Material {
+        name: "pane".into(),
+        bsdf: Bsdf::ThinDielectric(ThinDielectric {
+            ior: 1.5,
+            reflectance: Vec3::ONE,
+            transmittance: Vec3::ONE,
+        }),
+    });
+    let mut prims = base.primitives.clone();
+    let mut attrs = base.attrs.clone();
+    // A tilted square through the sphere's middle, in front of the camera.
+    let (a, b, c, d) = (
+        Vec3::new(-0.6, -0.6, -0.2),
+        Vec3::new(0.6, -0.6, -0.5),
+        Vec3::new(0.6, 0.6, -0.5),
+        Vec3::new(-0.6, 0.6, -0.2),
+    );
+    for tri in [[a, b, c], [a, c, d]] {
+        prims.push(Primitive::Triangle(tri));
+        attrs.push(PrimAttrs {
+            material: 1,
+            normals: None,
+            emission: None,
+        });
+    }
+    let scene = Scene::assemble(
+        "furnace-pane".into(),
+        "furnace-pane".into(),
+        "0".into(),
+        base.camera.clone(),
+        materials,
+        prims,
+        attrs,
+        vec![],
+    )
+    .unwrap();
+    let expected = 1.0 / (1.0 - albedo as f64);
+    for (kind, spp) in [("path", 1024), ("bdpt", 256)] {
+        let params = toml::from_str("max_depth = 1024\nrr_depth = 2").unwrap();
+        let mut s = photon_bench::strategy::build(kind, params).unwrap();
+        s.prepare(&scene, 5).unwrap();
+        let mut film = Film::new(8, 8);
+        s.render_pass(&scene, 5, 0..spp, &mut film);
+        assert_eq!(film.non_finite(), 0);
+        let img = film.image();
+        let got = img.pixels.iter().map(|p| p.x as f64).sum::<f64>() / img.pixels.len() as f64;
+        assert!((got - expected).abs() < 0.02 * expected, "{kind}: {got} vs {expected}");
+    }
+}

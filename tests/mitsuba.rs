@@ -757,3 +757,46 @@ fn spectra_become_the_rgb_mitsuba_gives() {
         );
     }
 }
+
+/// `thindielectric` reads as our thin dielectric sheet (relative index, both filters), needs no
+/// `twosided` (it is the same from both sides, as in Mitsuba) and survives export and import.
+#[test]
+fn thin_dielectric_reads_and_round_trips() {
+    let body = format!(
+        r#"{LIGHT}<bsdf type="thindielectric" id="pane"><float name="int_ior" value="1.5"/><float name="ext_ior" value="1"/>
+        <rgb name="specular_transmittance" value="0.9 0.8 0.7"/></bsdf>
+    <shape type="rectangle"><ref id="pane"/></shape>"#
+    );
+    let (scene, warnings) = load_xml(&scene_xml(&body)).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let pane = scene.materials.iter().find(|m| m.name == "pane").unwrap();
+    assert_eq!(
+        pane.bsdf,
+        photon_bench::bsdf::Bsdf::ThinDielectric(photon_bench::bsdf::ThinDielectric {
+            ior: 1.5,
+            reflectance: Vec3::ONE,
+            transmittance: Vec3::new(0.9, 0.8, 0.7),
+        })
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("pane.toml");
+    std::fs::write(
+        &toml,
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ci-tiny.toml"))
+            .unwrap()
+            .replacen(
+                "type = \"diffuse\"\nreflectance = [0.63, 0.065, 0.05]",
+                "type = \"thin_dielectric\"\nior = 1.33\ntransmittance = [0.5, 0.6, 0.7]",
+                1,
+            ),
+    )
+    .unwrap();
+    let (a, b, _) = round_trip(&toml, dir.path());
+    assert!(
+        a.materials
+            .iter()
+            .any(|m| matches!(m.bsdf, photon_bench::bsdf::Bsdf::ThinDielectric(_))),
+        "the test scene has a thin dielectric"
+    );
+    assert_same_scene(&a, &b, "thin dielectric round trip");
+}

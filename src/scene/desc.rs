@@ -41,6 +41,11 @@
 //! type = "diffuse_transmission"     # Lambertian reflection plus Lambertian transmission
 //! reflectance = [0.5, 0.5, 0.5]     # reflectance + transmittance <= 1 per channel
 //! transmittance = [0.3, 0.3, 0.3]
+//! [materials.pane]
+//! type = "thin_dielectric"          # a thin glass sheet: reflects, passes light straight through
+//! ior = 1.5                         # > 0
+//! reflectance = [1, 1, 1]           # optional filters, default [1, 1, 1]; in [0, 1]
+//! transmittance = [1, 1, 1]
 //!
 //! # Shapes; every shape takes `material` (required), `transform` and `emission` (optional).
 //! [[shapes]]
@@ -213,6 +218,7 @@ pub enum MaterialDesc {
     Phong(Phong),
     Ward(Ward),
     DiffuseTransmission(DiffuseTransmission),
+    ThinDielectric(ThinDielectric),
 }
 
 /// Lambertian reflection.
@@ -236,6 +242,18 @@ pub struct Mirror {
 pub struct Dielectric {
     /// Relative index of refraction (inside over outside).
     pub ior: f64,
+}
+
+/// A thin dielectric sheet (Mitsuba's `thindielectric`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThinDielectric {
+    /// Index of refraction of the sheet relative to its surroundings.
+    pub ior: f64,
+    #[serde(default = "white")]
+    pub reflectance: Triple,
+    #[serde(default = "white")]
+    pub transmittance: Triple,
 }
 
 /// Energy-conserving modified Phong.

@@ -118,6 +118,15 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
                  <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n",
                 d.ior
             ),
+            MaterialDesc::ThinDielectric(d) => format!(
+                "    <bsdf type=\"thindielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
+                 <float name=\"ext_ior\" value=\"1\"/>\n        \
+                 <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        \
+                 <rgb name=\"specular_transmittance\" value=\"{}\"/>\n    </bsdf>\n",
+                d.ior,
+                nums(&d.reflectance.0),
+                nums(&d.transmittance.0)
+            ),
             MaterialDesc::Ward(w) if w.diffuse.0 == [0.0; 3] => {
                 warnings.push(format!(
                     "{file}: {field}: ward written as Mitsuba's roughconductor (Beckmann, same alpha): \

@@ -2,7 +2,7 @@
 //! materials (BSDFs built and checked), each error one line naming the field.
 
 use super::*;
-use crate::bsdf::{Bsdf, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, Ward};
+use crate::bsdf::{Bsdf, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::resources::{check_memory, film_bytes, memory_limit};
@@ -213,6 +213,16 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                 ));
             }
         }
+        MaterialDesc::ThinDielectric(m) => {
+            if !(m.ior > 0.0 && (m.ior as f32).is_finite()) {
+                return Err(ctx.err(
+                    &f("ior"),
+                    format!("expected a positive finite number, got {}", num(m.ior)),
+                ));
+            }
+            ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
+            ctx.unit_rgb(&f("transmittance"), m.transmittance)?;
+        }
         MaterialDesc::Phong(m) => {
             ctx.unit_rgb(&f("diffuse"), m.diffuse)?;
             ctx.unit_rgb(&f("specular"), m.specular)?;
@@ -258,6 +268,11 @@ pub(super) fn make_bsdf(d: &MaterialDesc) -> Result<Bsdf> {
             reflectance: rgb(m.reflectance),
         }),
         MaterialDesc::Dielectric(m) => Bsdf::Dielectric(Dielectric::clear(m.ior as f32)),
+        MaterialDesc::ThinDielectric(m) => Bsdf::ThinDielectric(ThinDielectric {
+            ior: m.ior as f32,
+            reflectance: rgb(m.reflectance),
+            transmittance: rgb(m.transmittance),
+        }),
         MaterialDesc::Phong(m) => Bsdf::Phong(Phong {
             diffuse: rgb(m.diffuse),
             specular: rgb(m.specular),

@@ -23,13 +23,13 @@ impl<'a, 'i> Reader<'a, 'i> {
                 ));
             };
             let m = self.one_bsdf(inner)?;
-            if matches!(m, MaterialDesc::Dielectric(_)) {
+            if matches!(m, MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_)) {
                 return Err(self.err(inner, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
             }
             return Ok(m);
         }
         let m = self.one_bsdf(n)?;
-        if !matches!(m, MaterialDesc::Dielectric(_)) {
+        if !matches!(m, MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_)) {
             self.warn(
                 n,
                 "one-sided in Mitsuba 3 (black from behind), two-sided in photon-bench; wrap it in \
@@ -109,10 +109,21 @@ impl<'a, 'i> Reader<'a, 'i> {
                 }
                 MaterialDesc::Dielectric(desc::Dielectric { ior: int_ior / ext_ior })
             }
+            "thindielectric" => {
+                let int_ior = self.ior(&mut o, "int_ior", 1.5046)?;
+                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                MaterialDesc::ThinDielectric(desc::ThinDielectric {
+                    ior: int_ior / ext_ior,
+                    reflectance: self.colour(&mut o, "specular_reflectance")?.unwrap_or(Fixed([1.0; 3])),
+                    transmittance: self
+                        .colour(&mut o, "specular_transmittance")?
+                        .unwrap_or(Fixed([1.0; 3])),
+                })
+            }
             other => {
                 return Err(self.err(
                     n,
-                    format!("unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, twosided)"),
+                    format!("unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, thindielectric, twosided)"),
                 ));
             }
         };

@@ -27,6 +27,7 @@
 //! | `bsdf` `conductor` with `material = "none"` (the default): `specular_reflectance` | `mirror` (named metals need a Fresnel conductor we do not have: error) |
 //! | `bsdf` `roughconductor` (`alpha` or `alpha_u`/`alpha_v`, `specular_reflectance`) | `ward` with no diffuse part, α as Ward's roughness, **with a warning**: our glossy model approximates the microfacet lobe |
 //! | `bsdf` `dielectric` (`int_ior`, `ext_ior`: numbers or Mitsuba's named media; defaults bk7 and air) | `dielectric` with `ior = int_ior / ext_ior` |
+//! | `bsdf` `thindielectric` (`int_ior`, `ext_ior`, `specular_reflectance`, `specular_transmittance`) | `thin_dielectric` with `ior = int_ior / ext_ior` and both filters (two-sided, as Mitsuba's) |
 //! | `bsdf` `twosided` around one reflecting BSDF | that BSDF: our reflection models are two-sided. A bare reflecting BSDF is one-sided in Mitsuba (black from behind), so it is read with a warning |
 //! | a shape without a BSDF | Mitsuba's default, `diffuse` 0.5 (one-sided: warned) |
 //! | `emitter` `area` in a shape: `radiance` | `emission = { radiance, two_sided = false }`: Mitsuba's area lights emit on the front side only, as ours do by default |
