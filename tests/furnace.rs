@@ -138,7 +138,9 @@ fn furnace_holds_for_every_light_sampling_option() {
 /// A lossless thin dielectric sheet (filters 1) inside the furnace reflects or passes every
 /// photon and changes nothing: L = Le / (1 − ρ) for path tracing and bidirectional path
 /// tracing, whose paths cross it in both directions and never connect through it (a delta
-/// surface). A sheet that lost or gained energy would move the mean.
+/// surface). A sheet that lost or gained energy would move the mean. (Light tracing is not
+/// run: the pane fills the image, and light tracing cannot reach the eye through a delta
+/// surface.)
 #[test]
 fn a_lossless_thin_dielectric_sheet_keeps_the_furnace() {
     use photon_bench::bsdf::ThinDielectric;
