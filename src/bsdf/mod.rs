@@ -97,6 +97,20 @@ pub enum Bsdf {
     ThinDielectric(ThinDielectric),
 }
 
+impl BsdfSample {
+    /// The sample a guided mixture (BSDF and a guiding density) drew: direction `wi`, the
+    /// BSDF's value there (radiance transport) and the mixture's density `pdf_w`; `None` where
+    /// that density is zero.
+    pub fn of_mixture(bsdf: &Bsdf, wo: Vec3, wi: Vec3, pdf_w: f32) -> Option<Self> {
+        (pdf_w > 0.0).then(|| BsdfSample {
+            wi,
+            f: bsdf.eval(wo, wi, TransportMode::Radiance),
+            pdf_w,
+            delta: false,
+        })
+    }
+}
+
 impl Bsdf {
     /// f_s(wo, wi) without the cosine; zero for delta models.
     #[inline]

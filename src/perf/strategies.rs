@@ -62,22 +62,19 @@ pub fn measure_strategies(
     } else {
         kinds.to_vec()
     };
-    let builders: Vec<Builder> = kinds
-        .iter()
-        .map(|kind| Box::new(move |p| registry.build(kind, p)) as Builder)
-        .collect();
     let cases = kinds
         .iter()
-        .zip(&builders)
-        .map(|(kind, build)| Case {
-            scene,
-            label: kind,
-            kind,
-            params: toml::Table::new(),
-            build: build.as_ref(),
-            samples,
+        .map(|kind| {
+            Ok(Case {
+                scene,
+                label: kind,
+                kind,
+                params: toml::Table::new(),
+                build: registry.get(kind)?.build,
+                samples,
+            })
         })
-        .collect::<Vec<_>>();
+        .collect::<Result<Vec<_>>>()?;
     measure_cases(&cases, repeats, &mut |_, _| {})
 }
 
@@ -115,21 +112,16 @@ pub fn measure_experiment(
             Ok((file, scene))
         })
         .collect::<Result<Vec<_>>>()?;
-    let builders: Vec<Builder> = experiment
-        .strategies
-        .iter()
-        .map(|spec| Box::new(move |p| (spec.registration.build)(p)) as Builder)
-        .collect();
     let mut cases = Vec::new();
     for (file, scene) in &scenes {
-        for (spec, build) in experiment.strategies.iter().zip(&builders) {
+        for spec in &experiment.strategies {
             if spec.runs_on(file) {
                 cases.push(Case {
                     scene,
                     label: &spec.label,
                     kind: &spec.kind,
                     params: spec.params.clone(),
-                    build: build.as_ref(),
+                    build: spec.registration.build,
                     samples: samples.unwrap_or_else(|| spec.spp.iter().copied().max().unwrap_or(1)),
                 });
             }
@@ -138,8 +130,6 @@ pub fn measure_experiment(
     measure_cases(&cases, repeats, progress)
 }
 
-type Builder<'a> = Box<dyn Fn(toml::Table) -> Result<Box<dyn Strategy>> + 'a>;
-
 /// What to measure: a strategy built from a label, kind and parameters, on a scene, rendering
 /// `samples` spp per repeat.
 struct Case<'a> {
@@ -147,7 +137,7 @@ struct Case<'a> {
     label: &'a str,
     kind: &'a str,
     params: toml::Table,
-    build: &'a dyn Fn(toml::Table) -> Result<Box<dyn Strategy>>,
+    build: fn(toml::Table) -> Result<Box<dyn Strategy>>,
     samples: u32,
 }
 

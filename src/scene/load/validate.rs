@@ -198,6 +198,16 @@ pub(super) fn materials(
 
 pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Result<()> {
     let f = |key: &str| format!("{field}.{key}");
+    let ior = |ior: f64| {
+        if ior > 0.0 && (ior as f32).is_finite() {
+            Ok(())
+        } else {
+            Err(ctx.err(
+                &f("ior"),
+                format!("expected a positive finite number, got {}", num(ior)),
+            ))
+        }
+    };
     match d {
         MaterialDesc::Diffuse(m) => {
             ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
@@ -205,21 +215,9 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
         MaterialDesc::Mirror(m) => {
             ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
         }
-        MaterialDesc::Dielectric(m) => {
-            if !(m.ior > 0.0 && (m.ior as f32).is_finite()) {
-                return Err(ctx.err(
-                    &f("ior"),
-                    format!("expected a positive finite number, got {}", num(m.ior)),
-                ));
-            }
-        }
+        MaterialDesc::Dielectric(m) => ior(m.ior)?,
         MaterialDesc::ThinDielectric(m) => {
-            if !(m.ior > 0.0 && (m.ior as f32).is_finite()) {
-                return Err(ctx.err(
-                    &f("ior"),
-                    format!("expected a positive finite number, got {}", num(m.ior)),
-                ));
-            }
+            ior(m.ior)?;
             ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
             ctx.unit_rgb(&f("transmittance"), m.transmittance)?;
         }

@@ -184,14 +184,7 @@ impl DirectionSampler for GridSampler<'_> {
         } else {
             self.sample_grid(v, u)?
         };
-        let pdf_w = self.pdf(v, bsdf, wo, wi);
-        let f = bsdf.eval(wo, wi, TransportMode::Radiance);
-        (pdf_w > 0.0).then_some(BsdfSample {
-            wi,
-            f,
-            pdf_w,
-            delta: false,
-        })
+        BsdfSample::of_mixture(bsdf, wo, wi, self.pdf(v, bsdf, wo, wi))
     }
 
     fn pdf(&self, v: &GuidedVertex, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {

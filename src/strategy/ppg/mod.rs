@@ -161,14 +161,7 @@ impl DirectionSampler for Guide<'_> {
         } else {
             frame.to_local(guide.sample(|| rng.uniform()))
         };
-        let pdf_w = self.pdf(v, bsdf, wo, wi);
-        let f = bsdf.eval(wo, wi, TransportMode::Radiance);
-        (pdf_w > 0.0).then_some(BsdfSample {
-            wi,
-            f,
-            pdf_w,
-            delta: false,
-        })
+        BsdfSample::of_mixture(bsdf, wo, wi, self.pdf(v, bsdf, wo, wi))
     }
 
     fn pdf(&self, v: &Self::Vertex, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
