@@ -358,13 +358,19 @@ fn approximations_and_ignored_settings_are_warned_about() {
     );
     let (scene, warnings) = load_xml(&scene_xml(&body)).unwrap();
     let all = warnings.join("\n");
-    for expected in ["integrator", "Ward", "one-sided", "no BSDF"] {
+    for expected in ["integrator", "one-sided", "no BSDF"] {
         assert!(all.contains(expected), "no warning about {expected}: {all}");
     }
-    assert!(matches!(
-        scene.materials.iter().find(|m| m.name == "shape1").unwrap().bsdf,
-        photon_bench::bsdf::Bsdf::Ward(_)
-    ));
+    // A real microfacet conductor now, not an approximation: Mitsuba's defaults (Beckmann,
+    // the perfect mirror's η = 0, k = 1), the file's α.
+    let photon_bench::bsdf::Bsdf::RoughConductor(c) =
+        &scene.materials.iter().find(|m| m.name == "shape1").unwrap().bsdf
+    else {
+        panic!("roughconductor became something else")
+    };
+    assert_eq!(c.distribution.kind, photon_bench::bsdf::MicrofacetType::Beckmann);
+    assert_eq!((c.distribution.alpha_u, c.distribution.alpha_v), (0.2, 0.2));
+    assert_eq!((c.ior.eta, c.ior.k), (Vec3::ZERO, Vec3::ONE));
 }
 
 /// Every refusal is one line naming the file, the line, the element and what was wrong.
@@ -449,9 +455,9 @@ fn bad_xml_is_refused_naming_the_element() {
         ),
         (
             scene_xml(&format!(
-                "{LIGHT}<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf></shape>"
+                "{LIGHT}<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"Unobtainium\"/></bsdf></shape>"
             )),
-            &["<string name=\"material\">", "Fresnel"],
+            &["<string name=\"material\">", "unknown conductor", "Au"],
         ),
         (
             SENSOR

@@ -361,6 +361,113 @@ fn materials_must_conserve_energy_and_stay_in_range() {
     );
 }
 
+/// Metals and microfacet materials load with Mitsuba's defaults, and every wrong field is
+/// named.
+#[test]
+fn microfacet_materials_load_and_refuse_bad_fields() {
+    use photon_bench::bsdf::{Bsdf, MicrofacetType};
+    let material = |body: &str| {
+        with(&format!(
+            "[materials.m]\n{body}\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\ncenter = [0, 0.5, 0]\nradius = 0.2"
+        ))
+    };
+    let load = |body: &str| {
+        let scene = Dir::new(&material(body), &[]).load().unwrap();
+        scene.materials.iter().find(|m| m.name == "m").unwrap().bsdf.clone()
+    };
+    let Bsdf::RoughConductor(c) = load("type = \"rough_conductor\"\nmaterial = \"Au\"") else {
+        panic!()
+    };
+    assert_eq!(c.distribution.kind, MicrofacetType::Beckmann);
+    assert_eq!(c.distribution.alpha_u, 0.1);
+    assert!(c.ior.k.x > 3.0 && c.ior.eta.x < 0.5, "gold: {:?}", c.ior);
+    let Bsdf::RoughConductor(c) = load(
+        "type = \"rough_conductor\"\ndistribution = \"ggx\"\nalpha_u = 0.05\nalpha_v = 0.3\nsample_visible = false",
+    ) else {
+        panic!()
+    };
+    assert_eq!(
+        (c.distribution.kind, c.distribution.alpha_v),
+        (MicrofacetType::Ggx, 0.3)
+    );
+    assert!(!c.distribution.sample_visible);
+    assert!(matches!(
+        load("type = \"conductor\"\nmaterial = \"Cu\""),
+        Bsdf::Conductor(_)
+    ));
+    let Bsdf::RoughDielectric(d) = load("type = \"rough_dielectric\"\nior = 1.33\nalpha = 0.2") else {
+        panic!()
+    };
+    assert_eq!(d.ior, 1.33);
+    let Bsdf::RoughPlastic(p) = load("type = \"rough_plastic\"\ndiffuse_reflectance = [0.2, 0.4, 0.6]") else {
+        panic!()
+    };
+    assert_eq!((p.ior, p.diffuse_reflectance), (1.49, glam::Vec3::new(0.2, 0.4, 0.6)));
+
+    let cases: &[(&str, &str, &[&str])] = &[
+        (
+            "type = \"conductor\"\nmaterial = \"Unobtainium\"",
+            "materials.m.material",
+            &["unknown conductor", "Au"],
+        ),
+        (
+            "type = \"conductor\"\nmaterial = \"Au\"\neta = [1, 1, 1]",
+            "materials.m.material",
+            &["either a named material or eta and k"],
+        ),
+        ("type = \"conductor\"\nk = [1, -1, 1]", "materials.m.k", &["[0, 1e4]"]),
+        (
+            "type = \"rough_conductor\"\ndistribution = \"phong\"",
+            "materials.m.distribution",
+            &["beckmann", "ggx"],
+        ),
+        (
+            "type = \"rough_conductor\"\nalpha = 0.1\nalpha_u = 0.2\nalpha_v = 0.2",
+            "materials.m.alpha",
+            &["not both"],
+        ),
+        (
+            "type = \"rough_conductor\"\nalpha_u = 0.2",
+            "materials.m",
+            &["together"],
+        ),
+        (
+            "type = \"rough_conductor\"\nalpha = -0.1",
+            "materials.m.alpha",
+            &["roughness", "-0.1"],
+        ),
+        (
+            "type = \"rough_conductor\"\nalpha_u = 0.1\nalpha_v = nan",
+            "materials.m.alpha_v",
+            &["roughness"],
+        ),
+        ("type = \"rough_dielectric\"\nior = 1", "materials.m.ior", &["not 1"]),
+        (
+            "type = \"rough_dielectric\"\nior = 1.5\nspecular_transmittance = [2, 1, 1]",
+            "materials.m.specular_transmittance",
+            &["[0, 1]"],
+        ),
+        (
+            "type = \"rough_plastic\"\nalpha_u = 0.1\nalpha_v = 0.3",
+            "materials.m",
+            &["isotropic"],
+        ),
+        (
+            "type = \"rough_plastic\"\ndiffuse_reflectance = [0.5, 1.5, 0.5]",
+            "materials.m.diffuse_reflectance",
+            &["[0, 1]"],
+        ),
+        (
+            "type = \"rough_plastic\"\nroughness = 0.3",
+            "materials.m",
+            &["roughness"],
+        ),
+    ];
+    for (body, field, parts) in cases {
+        assert_error(&error(&material(body)), field, parts);
+    }
+}
+
 #[test]
 fn emission_must_be_non_negative_and_some_light_must_shine() {
     for radiance in ["[1, -1, 1]", "[1, nan, 1]", "[inf, 1, 1]"] {

@@ -22,6 +22,13 @@
 //! - [`DiffuseTransmission`]: Lambertian reflection plus Lambertian transmission.
 //! - [`ThinDielectric`]: a thin dielectric sheet, reflecting and passing light straight
 //!   through (delta), as Mitsuba 3's `thindielectric`.
+//! - [`Conductor`] and [`RoughConductor`]: metals with a complex index of refraction, smooth
+//!   (delta) and microfacet, as Mitsuba 3's `conductor` and `roughconductor`.
+//! - [`RoughDielectric`]: microfacet reflection and refraction, Mitsuba 3's `roughdielectric`.
+//! - [`RoughPlastic`]: a diffuse base under a rough dielectric coating, Mitsuba 3's
+//!   `roughplastic`.
+//!
+//! The microfacet models share [`Microfacet`] (Beckmann and GGX, visible-normal sampling).
 //!
 //! Parameters are not validated by the constructors (the structs are plain data); whoever
 //! builds a [`Bsdf`] from user input should call [`Bsdf::validate`], which lists the
@@ -32,22 +39,33 @@
 //! that knows about scenes, lights or paths (a BSDF sees only directions in its local frame and
 //! its own parameters); colour helpers come from [`crate::color`].
 
+mod conductor;
 mod dielectric;
 mod diffuse_transmission;
 mod lambertian;
+mod microfacet;
 mod mirror;
+pub mod named_conductors;
 mod phong;
+mod rough_dielectric;
+mod rough_plastic;
 mod thin_dielectric;
 mod ward;
 
 #[cfg(test)]
+mod microfacet_tests;
+#[cfg(test)]
 mod tests;
 
+pub use conductor::{Conductor, ConductorIor, RoughConductor, fresnel_conductor};
 pub use dielectric::{Dielectric, fresnel_dielectric, refract};
 pub use diffuse_transmission::DiffuseTransmission;
 pub use lambertian::Lambertian;
+pub use microfacet::{MIN_ALPHA, Microfacet, MicrofacetType};
 pub use mirror::Mirror;
 pub use phong::Phong;
+pub use rough_dielectric::RoughDielectric;
+pub use rough_plastic::RoughPlastic;
 pub use thin_dielectric::ThinDielectric;
 pub use ward::Ward;
 
@@ -95,6 +113,10 @@ pub enum Bsdf {
     Ward(Ward),
     DiffuseTransmission(DiffuseTransmission),
     ThinDielectric(ThinDielectric),
+    Conductor(Conductor),
+    RoughConductor(RoughConductor),
+    RoughDielectric(RoughDielectric),
+    RoughPlastic(RoughPlastic),
 }
 
 impl BsdfSample {
@@ -115,8 +137,6 @@ impl Bsdf {
     /// f_s(wo, wi) without the cosine; zero for delta models.
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
-        // No non-delta model here refracts, so the transport mode matters only when sampling.
-        let _ = mode;
         match self {
             Bsdf::Lambertian(b) => b.eval(wo, wi),
             Bsdf::Mirror(b) => b.eval(wo, wi),
@@ -125,6 +145,10 @@ impl Bsdf {
             Bsdf::Ward(b) => b.eval(wo, wi),
             Bsdf::DiffuseTransmission(b) => b.eval(wo, wi),
             Bsdf::ThinDielectric(b) => b.eval(wo, wi),
+            Bsdf::Conductor(b) => b.eval(wo, wi),
+            Bsdf::RoughConductor(b) => b.eval(wo, wi),
+            Bsdf::RoughDielectric(b) => b.eval(wo, wi, mode),
+            Bsdf::RoughPlastic(b) => b.eval(wo, wi),
         }
     }
 
@@ -139,6 +163,10 @@ impl Bsdf {
             Bsdf::Ward(b) => b.pdf(wo, wi),
             Bsdf::DiffuseTransmission(b) => b.pdf(wo, wi),
             Bsdf::ThinDielectric(b) => b.pdf(wo, wi),
+            Bsdf::Conductor(b) => b.pdf(wo, wi),
+            Bsdf::RoughConductor(b) => b.pdf(wo, wi),
+            Bsdf::RoughDielectric(b) => b.pdf(wo, wi),
+            Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
         }
     }
 
@@ -153,6 +181,10 @@ impl Bsdf {
             Bsdf::Ward(b) => b.sample(wo, u, u_lobe),
             Bsdf::DiffuseTransmission(b) => b.sample(wo, u, u_lobe),
             Bsdf::ThinDielectric(b) => b.sample(wo, u_lobe),
+            Bsdf::Conductor(b) => b.sample(wo),
+            Bsdf::RoughConductor(b) => b.sample(wo, u),
+            Bsdf::RoughDielectric(b) => b.sample(wo, u, u_lobe, mode),
+            Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
         }
     }
 
@@ -160,10 +192,14 @@ impl Bsdf {
     pub fn kind(&self) -> SurfaceKind {
         match self {
             Bsdf::Lambertian(_) | Bsdf::DiffuseTransmission(_) => SurfaceKind::Diffuse,
-            Bsdf::Mirror(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => SurfaceKind::Specular,
+            Bsdf::Mirror(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Conductor(_) => {
+                SurfaceKind::Specular
+            }
             Bsdf::Phong(b) if has_energy(b.diffuse) => SurfaceKind::Diffuse,
             Bsdf::Ward(b) if has_energy(b.diffuse) => SurfaceKind::Diffuse,
-            Bsdf::Phong(_) | Bsdf::Ward(_) => SurfaceKind::Glossy,
+            Bsdf::RoughPlastic(b) if has_energy(b.diffuse_reflectance) => SurfaceKind::Diffuse,
+            Bsdf::Phong(_) | Bsdf::Ward(_) | Bsdf::RoughPlastic(_) => SurfaceKind::Glossy,
+            Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) => SurfaceKind::Glossy,
         }
     }
 
@@ -171,7 +207,7 @@ impl Bsdf {
     pub fn is_transmissive(&self) -> bool {
         matches!(
             self,
-            Bsdf::DiffuseTransmission(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_)
+            Bsdf::DiffuseTransmission(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::RoughDielectric(_)
         )
     }
 
@@ -193,6 +229,11 @@ impl Bsdf {
             Bsdf::Ward(b) => b.diffuse + b.specular,
             Bsdf::DiffuseTransmission(b) => b.reflectance + b.transmittance,
             Bsdf::ThinDielectric(b) => b.reflectance.max(b.transmittance),
+            Bsdf::Conductor(b) => b.ior.specular_reflectance,
+            Bsdf::RoughConductor(b) => b.ior.specular_reflectance,
+            Bsdf::RoughDielectric(b) => b.specular_reflectance.max(b.specular_transmittance),
+            // The coating splits light between the two lobes: T ρ + (1 − T) R_s ≤ max(ρ, R_s).
+            Bsdf::RoughPlastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
         }
     }
 
@@ -260,6 +301,42 @@ impl Bsdf {
                 unit("reflectance", b.reflectance)?;
                 unit("transmittance", b.transmittance)
             }
+            Bsdf::Conductor(Conductor { ior }) | Bsdf::RoughConductor(RoughConductor { ior, .. }) => {
+                let non_negative = |name: &str, c: Vec3| -> Result<()> {
+                    if c.is_finite() && c.cmpge(Vec3::ZERO).all() {
+                        Ok(())
+                    } else {
+                        Err(Error::new(format!(
+                            "{name} must be finite and ≥ 0 per channel, got {c}"
+                        )))
+                    }
+                };
+                non_negative("eta", ior.eta)?;
+                non_negative("k", ior.k)?;
+                unit("specular_reflectance", ior.specular_reflectance)?;
+                match self {
+                    Bsdf::RoughConductor(b) => b.distribution.validate(),
+                    _ => Ok(()),
+                }
+            }
+            Bsdf::RoughDielectric(b) => {
+                positive("ior", b.ior)?;
+                if b.ior == 1.0 {
+                    return Err(Error::new("ior must differ from 1 (an invisible rough interface)"));
+                }
+                unit("specular_reflectance", b.specular_reflectance)?;
+                unit("specular_transmittance", b.specular_transmittance)?;
+                b.distribution.validate()
+            }
+            Bsdf::RoughPlastic(b) => {
+                positive("ior", b.ior)?;
+                if b.ior == 1.0 {
+                    return Err(Error::new("ior must differ from 1 (no coating)"));
+                }
+                unit("diffuse_reflectance", b.diffuse_reflectance)?;
+                unit("specular_reflectance", b.specular_reflectance)?;
+                b.distribution.validate()
+            }
         }
     }
 }
@@ -268,6 +345,17 @@ impl Bsdf {
 #[inline]
 fn has_energy(c: Vec3) -> bool {
     c.max_element() > 0.0
+}
+
+/// Mirrors a pair of directions to the upper hemisphere of `wo` (both keep x and y), so that a
+/// reflection model written for the upper side reflects on the side of `wo`.
+#[inline]
+pub(crate) fn to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
+    if wo.z < 0.0 {
+        (wo.with_z(-wo.z), wi.with_z(-wi.z))
+    } else {
+        (wo, wi)
+    }
 }
 
 /// Mirror direction of `w` about the normal +z of the local frame.

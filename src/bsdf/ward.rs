@@ -27,7 +27,7 @@
 //! `alpha_x`, `alpha_y` > 0, the RMS slopes along the tangent x and the bitangent y (typically
 //! 0.05–0.5; isotropic when equal). Callers must check, e.g. with [`super::Bsdf::validate`].
 
-use super::{BsdfSample, lobe_probability};
+use super::{BsdfSample, lobe_probability, to_upper};
 use crate::sampling::sample_cosine_hemisphere;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI, TAU};
@@ -42,16 +42,6 @@ pub struct Ward {
     pub alpha_x: f32,
     /// RMS slope αy along the bitangent (local y), > 0.
     pub alpha_y: f32,
-}
-
-/// Mirrors a pair of directions to the upper hemisphere of `wo` (both keep x and y).
-#[inline]
-fn to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
-    if wo.z < 0.0 {
-        (wo.with_z(-wo.z), wi.with_z(-wi.z))
-    } else {
-        (wo, wi)
-    }
 }
 
 impl Ward {

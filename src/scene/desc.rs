@@ -46,6 +46,29 @@
 //! ior = 1.5                         # > 0
 //! reflectance = [1, 1, 1]           # optional filters, default [1, 1, 1]; in [0, 1]
 //! transmittance = [1, 1, 1]
+//! [materials.copper]
+//! type = "conductor"                # a smooth metal (Mitsuba's `conductor`)
+//! material = "Cu"                   # one of Mitsuba's 71 named conductors, or:
+//!                                   # eta = [..], k = [..] (defaults 0 and 1: a perfect mirror)
+//! specular_reflectance = [1, 1, 1]  # optional tint, default [1, 1, 1]
+//! [materials.gold]
+//! type = "rough_conductor"          # Mitsuba's `roughconductor`: the fields of `conductor` and
+//! material = "Au"
+//! distribution = "ggx"              # "beckmann" (default) or "ggx"
+//! alpha = 0.2                       # roughness in [0, 10], default 0.1; or alpha_u and alpha_v
+//! sample_visible = true             # optional: visible-normal sampling (default) or all normals
+//! [materials.frosted]
+//! type = "rough_dielectric"         # Mitsuba's `roughdielectric`, the distribution as above
+//! ior = 1.5                         # inside / outside, > 0 and not 1
+//! alpha = 0.1
+//! specular_reflectance = [1, 1, 1]  # optional filters, default [1, 1, 1]
+//! specular_transmittance = [1, 1, 1]
+//! [materials.red_plastic]
+//! type = "rough_plastic"            # Mitsuba's `roughplastic`: isotropic (alpha only)
+//! diffuse_reflectance = [0.6, 0.08, 0.05]  # default 0.5
+//! ior = 1.49                        # coating, default 1.49 (polypropylene)
+//! alpha = 0.15
+//! nonlinear = false                 # optional, as Mitsuba
 //!
 //! # Shapes; every shape takes `material` (required), `transform` and `emission` (optional).
 //! [[shapes]]
@@ -219,6 +242,10 @@ pub enum MaterialDesc {
     Ward(Ward),
     DiffuseTransmission(DiffuseTransmission),
     ThinDielectric(ThinDielectric),
+    Conductor(Conductor),
+    RoughConductor(RoughConductor),
+    RoughDielectric(RoughDielectric),
+    RoughPlastic(RoughPlastic),
 }
 
 /// Lambertian reflection.
@@ -254,6 +281,105 @@ pub struct ThinDielectric {
     pub reflectance: Triple,
     #[serde(default = "white")]
     pub transmittance: Triple,
+}
+
+/// The microfacet distribution of a rough model, with Mitsuba 3's parameter names and
+/// defaults: Beckmann, α = 0.1, visible-normal sampling.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Roughness {
+    /// "beckmann" (default) or "ggx".
+    pub distribution: Option<String>,
+    /// Isotropic roughness (default 0.1); or both of `alpha_u`, `alpha_v`.
+    pub alpha: Option<f64>,
+    pub alpha_u: Option<f64>,
+    pub alpha_v: Option<f64>,
+    pub sample_visible: Option<bool>,
+}
+
+/// The fields of [`Roughness`], one by one in each rough material (`deny_unknown_fields` does
+/// not combine with `flatten`).
+macro_rules! rough_material {
+    ($(#[$doc:meta])* $name:ident { $($(#[$fdoc:meta])* pub $field:ident: $ty:ty,)* }) => {
+        $(#[$doc])*
+        #[derive(Clone, Debug, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct $name {
+            $($(#[$fdoc])* pub $field: $ty,)*
+            pub distribution: Option<String>,
+            pub alpha: Option<f64>,
+            pub alpha_u: Option<f64>,
+            pub alpha_v: Option<f64>,
+            pub sample_visible: Option<bool>,
+        }
+
+        impl $name {
+            pub fn roughness(&self) -> Roughness {
+                Roughness {
+                    distribution: self.distribution.clone(),
+                    alpha: self.alpha,
+                    alpha_u: self.alpha_u,
+                    alpha_v: self.alpha_v,
+                    sample_visible: self.sample_visible,
+                }
+            }
+        }
+    };
+}
+
+/// A smooth conductor (Mitsuba's `conductor`): a named metal, or η and k (default η = 0,
+/// k = 1: a perfect mirror).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Conductor {
+    /// One of Mitsuba's named conductors ("Au", "Cu", …; `bench` lists them on a wrong name).
+    pub material: Option<String>,
+    pub eta: Option<Triple>,
+    pub k: Option<Triple>,
+    pub specular_reflectance: Option<Triple>,
+}
+
+rough_material! {
+    /// A rough conductor (Mitsuba's `roughconductor`).
+    RoughConductor {
+        pub material: Option<String>,
+        pub eta: Option<Triple>,
+        pub k: Option<Triple>,
+        pub specular_reflectance: Option<Triple>,
+    }
+}
+
+rough_material! {
+    /// A rough dielectric (Mitsuba's `roughdielectric`).
+    RoughDielectric {
+        /// Relative index of refraction (inside over outside), > 0 and ≠ 1.
+        pub ior: f64,
+        pub specular_reflectance: Option<Triple>,
+        pub specular_transmittance: Option<Triple>,
+    }
+}
+
+rough_material! {
+    /// A diffuse base under a rough dielectric coating (Mitsuba's `roughplastic`).
+    RoughPlastic {
+        /// Default 0.5.
+        pub diffuse_reflectance: Option<Triple>,
+        pub specular_reflectance: Option<Triple>,
+        /// Relative index of the coating; default 1.49 (polypropylene), Mitsuba's default.
+        pub ior: Option<f64>,
+        pub nonlinear: Option<bool>,
+    }
+}
+
+impl RoughConductor {
+    /// The conductor part of the description.
+    pub fn conductor(&self) -> Conductor {
+        Conductor {
+            material: self.material.clone(),
+            eta: self.eta,
+            k: self.k,
+            specular_reflectance: self.specular_reflectance,
+        }
+    }
 }
 
 /// Energy-conserving modified Phong.

@@ -22,7 +22,7 @@
 //! Reading the file back ([`super::mitsuba::import`]) gives the same scene: same triangles and spheres to
 //! float precision, same camera rays, same materials (`tests/mitsuba.rs`).
 
-use super::desc::{MaterialDesc, SceneDesc, ShapeDesc, Triple};
+use super::desc::{self, Fixed, MaterialDesc, Roughness, SceneDesc, ShapeDesc, Triple};
 use super::load::{load_scene_with_stats, quad_corner_edges, read_desc, shape_transform};
 use crate::error::{Context, Error, Result};
 use glam::{DAffine3, DMat3, DMat4, DVec3};
@@ -145,6 +145,36 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             MaterialDesc::Ward(_) => {
                 return Err(err(&field, "a ward with a diffuse part has no Mitsuba 3 equivalent"));
             }
+            MaterialDesc::Conductor(c) => twosided(format!(
+                "        <bsdf type=\"conductor\">\n{}        </bsdf>\n",
+                conductor_props(c, INNER)
+            )),
+            MaterialDesc::RoughConductor(c) => twosided(format!(
+                "        <bsdf type=\"roughconductor\">\n{}{}        </bsdf>\n",
+                conductor_props(&c.conductor(), INNER),
+                roughness_props(&c.roughness(), INNER)
+            )),
+            MaterialDesc::RoughDielectric(d) => format!(
+                "    <bsdf type=\"roughdielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
+                 <float name=\"ext_ior\" value=\"1\"/>\n{}{}{}    </bsdf>\n",
+                d.ior,
+                optional_rgb("specular_reflectance", d.specular_reflectance, OUTER),
+                optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
+                roughness_props(&d.roughness(), OUTER)
+            ),
+            MaterialDesc::RoughPlastic(p) => twosided(format!(
+                "        <bsdf type=\"roughplastic\">\n            <float name=\"int_ior\" value=\"{}\"/>\n            \
+                 <float name=\"ext_ior\" value=\"1\"/>\n{}{}            <boolean name=\"nonlinear\" value=\"{}\"/>\n{}        </bsdf>\n",
+                p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
+                optional_rgb(
+                    "diffuse_reflectance",
+                    Some(p.diffuse_reflectance.unwrap_or(Fixed([0.5; 3]))),
+                    INNER
+                ),
+                optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
+                p.nonlinear.unwrap_or(false),
+                roughness_props(&p.roughness(), INNER)
+            )),
             MaterialDesc::Phong(_) => return Err(err(&field, "phong has no Mitsuba 3 equivalent")),
             MaterialDesc::DiffuseTransmission(_) => {
                 return Err(err(&field, "diffuse_transmission has no Mitsuba 3 equivalent"));
@@ -280,4 +310,56 @@ fn escape(s: &str) -> String {
         .replace('>', "&gt;")
         .replace('"', "&quot;")
         .replace('\'', "&apos;")
+}
+
+/// Indentation of the properties of a top-level BSDF and of one nested in `twosided`.
+const OUTER: &str = "        ";
+const INNER: &str = "            ";
+
+/// `<rgb>` for a colour that was given, nothing for one left at its default.
+fn optional_rgb(name: &str, v: Option<Triple>, indent: &str) -> String {
+    v.map_or(String::new(), |v| {
+        format!("{indent}<rgb name=\"{name}\" value=\"{}\"/>\n", nums(&v.0))
+    })
+}
+
+/// A conductor's index: its named material, or η and k as RGB (Mitsuba's defaults 0 and 1).
+fn conductor_props(c: &desc::Conductor, indent: &str) -> String {
+    let mut x = match c.material.as_deref() {
+        Some(name) if name != "none" => format!("{indent}<string name=\"material\" value=\"{}\"/>\n", escape(name)),
+        _ => format!(
+            "{indent}<rgb name=\"eta\" value=\"{}\"/>\n{indent}<rgb name=\"k\" value=\"{}\"/>\n",
+            nums(&c.eta.unwrap_or(Fixed([0.0; 3])).0),
+            nums(&c.k.unwrap_or(Fixed([1.0; 3])).0)
+        ),
+    };
+    x.push_str(&optional_rgb("specular_reflectance", c.specular_reflectance, indent));
+    x
+}
+
+/// A microfacet distribution with every default written out.
+fn roughness_props(r: &Roughness, indent: &str) -> String {
+    let mut x = format!(
+        "{indent}<string name=\"distribution\" value=\"{}\"/>\n",
+        escape(r.distribution.as_deref().unwrap_or("beckmann"))
+    );
+    match (r.alpha_u, r.alpha_v) {
+        (Some(u), Some(v)) => {
+            let _ = writeln!(x, "{indent}<float name=\"alpha_u\" value=\"{u}\"/>");
+            let _ = writeln!(x, "{indent}<float name=\"alpha_v\" value=\"{v}\"/>");
+        }
+        _ => {
+            let _ = writeln!(
+                x,
+                "{indent}<float name=\"alpha\" value=\"{}\"/>",
+                r.alpha.unwrap_or(0.1)
+            );
+        }
+    }
+    let _ = writeln!(
+        x,
+        "{indent}<boolean name=\"sample_visible\" value=\"{}\"/>",
+        r.sample_visible.unwrap_or(true)
+    );
+    x
 }

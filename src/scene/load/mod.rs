@@ -22,6 +22,8 @@
 
 mod locate;
 mod mesh;
+mod rough;
+pub(crate) use rough::PLASTIC_DEFAULT_IOR;
 #[cfg(test)]
 mod tests;
 mod transform;

@@ -1,6 +1,7 @@
 //! The third stage, meaning: numbers in range, colours, energies, the camera and the
 //! materials (BSDFs built and checked), each error one line naming the field.
 
+use super::rough;
 use super::*;
 use crate::bsdf::{Bsdf, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
 use crate::camera::Camera;
@@ -190,7 +191,7 @@ pub(super) fn materials(
         index.insert(name.clone(), out.len() as u32);
         out.push(Material {
             name: name.clone(),
-            bsdf: make_bsdf(d).map_err(|e| e.context(format!("{}: {field}", ctx.file)))?,
+            bsdf: make_bsdf(ctx, &field, d)?,
         });
     }
     Ok((out, index))
@@ -251,13 +252,18 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
             ctx.unit_rgb(&f("transmittance"), m.transmittance)?;
             ctx.energy(field, "reflectance + transmittance", m.reflectance, m.transmittance)?;
         }
+        // Checked field by field while they are built (`super::rough`).
+        MaterialDesc::Conductor(_)
+        | MaterialDesc::RoughConductor(_)
+        | MaterialDesc::RoughDielectric(_)
+        | MaterialDesc::RoughPlastic(_) => {}
     }
     Ok(())
 }
 
 /// Turns a validated material description into its reflectance model: the one place that
 /// knows both the file's material types and the [`Bsdf`] variants.
-pub(super) fn make_bsdf(d: &MaterialDesc) -> Result<Bsdf> {
+pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Result<Bsdf> {
     let bsdf = match d {
         MaterialDesc::Diffuse(m) => Bsdf::Lambertian(Lambertian {
             reflectance: rgb(m.reflectance),
@@ -286,9 +292,14 @@ pub(super) fn make_bsdf(d: &MaterialDesc) -> Result<Bsdf> {
             reflectance: rgb(m.reflectance),
             transmittance: rgb(m.transmittance),
         }),
+        MaterialDesc::Conductor(m) => rough::conductor(ctx, field, m)?,
+        MaterialDesc::RoughConductor(m) => rough::rough_conductor(ctx, field, m)?,
+        MaterialDesc::RoughDielectric(m) => rough::rough_dielectric(ctx, field, m)?,
+        MaterialDesc::RoughPlastic(m) => rough::rough_plastic(ctx, field, m)?,
     };
     // The description was validated field by field; this is the models' own check, kept as a
     // second line of defence (f64 → f32 rounding could tip a sum over 1).
-    bsdf.validate()?;
+    bsdf.validate()
+        .map_err(|e| e.context(format!("{}: {field}", ctx.file)))?;
     Ok(bsdf)
 }

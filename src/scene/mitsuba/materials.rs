@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::error::Result;
-use crate::scene::desc::{self, Fixed, MaterialDesc};
+use crate::scene::desc::{self, Fixed, MaterialDesc, Roughness};
 use roxmltree::Node;
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -23,13 +23,19 @@ impl<'a, 'i> Reader<'a, 'i> {
                 ));
             };
             let m = self.one_bsdf(inner)?;
-            if matches!(m, MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_)) {
+            if matches!(
+                m,
+                MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_) | MaterialDesc::RoughDielectric(_)
+            ) {
                 return Err(self.err(inner, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
             }
             return Ok(m);
         }
         let m = self.one_bsdf(n)?;
-        if !matches!(m, MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_)) {
+        if !matches!(
+            m,
+            MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_) | MaterialDesc::RoughDielectric(_)
+        ) {
             self.warn(
                 n,
                 "one-sided in Mitsuba 3 (black from behind), two-sided in photon-bench; wrap it in \
@@ -47,55 +53,59 @@ impl<'a, 'i> Reader<'a, 'i> {
                 reflectance: self.colour(&mut o, "reflectance")?.unwrap_or(Fixed([0.5; 3])),
             }),
             "conductor" | "roughconductor" => {
-                if let Some((p, material)) = self.string(&mut o, "material")?
-                    && material != "none"
-                {
-                    return Err(self.err(
-                        p,
-                        format!(
-                            "material {material:?}: named metals need a Fresnel conductor, which photon-bench \
-                             does not have; use material=\"none\" with a specular_reflectance"
-                        ),
-                    ));
-                }
-                for key in ["eta", "k"] {
-                    if let Some(&p) = o.props.get(key) {
-                        return Err(self.err(
-                            p,
-                            "complex indices of refraction are not supported (material=\"none\" only)",
-                        ));
-                    }
-                }
-                let reflectance = self.colour(&mut o, "specular_reflectance")?.unwrap_or(Fixed([1.0; 3]));
-                if kind == "conductor" {
-                    MaterialDesc::Mirror(desc::Mirror { reflectance })
-                } else {
-                    if let Some((p, d)) = self.string(&mut o, "distribution")?
-                        && !(d == "beckmann" || d == "ggx")
-                    {
-                        return Err(self.err(p, format!("distribution: expected beckmann or ggx, got {d:?}")));
-                    }
-                    self.boolean(&mut o, "sample_visible")?;
-                    let alpha = self.float(&mut o, "alpha")?;
-                    let au = self.float(&mut o, "alpha_u")?;
-                    let av = self.float(&mut o, "alpha_v")?;
-                    let (ax, ay) = match (alpha, au, av) {
-                        (a, None, None) => (a.unwrap_or(0.1), a.unwrap_or(0.1)),
-                        (None, Some(u), Some(v)) => (u, v),
-                        _ => return Err(self.err(n, "expected either alpha or both alpha_u and alpha_v")),
-                    };
-                    self.warn(
-                        n,
-                        "approximated by photon-bench's Ward model (alpha as its roughness, no Fresnel term); \
-                         renders will differ from Mitsuba's microfacet conductor",
-                    );
-                    MaterialDesc::Ward(desc::Ward {
-                        diffuse: Fixed([0.0; 3]),
-                        specular: reflectance,
-                        alpha_x: ax,
-                        alpha_y: ay,
+                let c = self.conductor(&mut o)?;
+                if kind == "roughconductor" {
+                    let r = self.roughness(&mut o)?;
+                    MaterialDesc::RoughConductor(desc::RoughConductor {
+                        material: c.material,
+                        eta: c.eta,
+                        k: c.k,
+                        specular_reflectance: c.specular_reflectance,
+                        distribution: r.distribution,
+                        alpha: r.alpha,
+                        alpha_u: r.alpha_u,
+                        alpha_v: r.alpha_v,
+                        sample_visible: r.sample_visible,
                     })
+                } else if c.material.is_none() && c.eta.is_none() && c.k.is_none() {
+                    // Mitsuba's default conductor is a perfect mirror: ours, exactly.
+                    MaterialDesc::Mirror(desc::Mirror {
+                        reflectance: c.specular_reflectance.unwrap_or(Fixed([1.0; 3])),
+                    })
+                } else {
+                    MaterialDesc::Conductor(c)
                 }
+            }
+            "roughdielectric" => {
+                let int_ior = self.ior(&mut o, "int_ior", 1.5046)?;
+                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                let r = self.roughness(&mut o)?;
+                MaterialDesc::RoughDielectric(desc::RoughDielectric {
+                    ior: int_ior / ext_ior,
+                    specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
+                    specular_transmittance: self.colour(&mut o, "specular_transmittance")?,
+                    distribution: r.distribution,
+                    alpha: r.alpha,
+                    alpha_u: r.alpha_u,
+                    alpha_v: r.alpha_v,
+                    sample_visible: r.sample_visible,
+                })
+            }
+            "roughplastic" => {
+                let int_ior = self.ior(&mut o, "int_ior", 1.49)?;
+                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                let r = self.roughness(&mut o)?;
+                MaterialDesc::RoughPlastic(desc::RoughPlastic {
+                    diffuse_reflectance: self.colour(&mut o, "diffuse_reflectance")?,
+                    specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
+                    ior: Some(int_ior / ext_ior),
+                    nonlinear: self.boolean(&mut o, "nonlinear")?,
+                    distribution: r.distribution,
+                    alpha: r.alpha,
+                    alpha_u: r.alpha_u,
+                    alpha_v: r.alpha_v,
+                    sample_visible: r.sample_visible,
+                })
             }
             "dielectric" => {
                 let int_ior = self.ior(&mut o, "int_ior", 1.5046)?;
@@ -123,7 +133,10 @@ impl<'a, 'i> Reader<'a, 'i> {
             other => {
                 return Err(self.err(
                     n,
-                    format!("unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, thindielectric, twosided)"),
+                    format!(
+                        "unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, \
+                         roughdielectric, thindielectric, roughplastic, twosided)"
+                    ),
                 ));
             }
         };
@@ -132,6 +145,46 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         self.finish(&o)?;
         Ok(m)
+    }
+
+    /// A conductor's `material` (a name; "none" is the default mirror), `eta` and `k` (unbounded
+    /// colours, as Mitsuba reads them) and `specular_reflectance`.
+    fn conductor(&mut self, o: &mut Obj<'a, 'i>) -> Result<desc::Conductor> {
+        let material = match self.string(o, "material")? {
+            Some((_, m)) if m == "none" => None,
+            Some((p, m)) => {
+                let names = crate::bsdf::named_conductors::NAMED_CONDUCTORS;
+                if !names.iter().any(|(n, _, _)| *n == m) {
+                    let list: Vec<&str> = names.iter().map(|(n, _, _)| *n).collect();
+                    return Err(self.err(
+                        p,
+                        format!(
+                            "value: unknown conductor {m:?}; expected \"none\" or one of {}",
+                            list.join(", ")
+                        ),
+                    ));
+                }
+                Some(m)
+            }
+            None => None,
+        };
+        Ok(desc::Conductor {
+            material,
+            eta: self.unbounded_colour(o, "eta")?,
+            k: self.unbounded_colour(o, "k")?,
+            specular_reflectance: self.colour(o, "specular_reflectance")?,
+        })
+    }
+
+    /// A microfacet distribution's properties, left for the scene loader to check.
+    fn roughness(&mut self, o: &mut Obj<'a, 'i>) -> Result<Roughness> {
+        Ok(Roughness {
+            distribution: self.string(o, "distribution")?.map(|(_, d)| d),
+            alpha: self.float(o, "alpha")?,
+            alpha_u: self.float(o, "alpha_u")?,
+            alpha_v: self.float(o, "alpha_v")?,
+            sample_visible: self.boolean(o, "sample_visible")?,
+        })
     }
 
     pub(super) fn ior(&self, o: &mut Obj<'a, 'i>, key: &str, default: f64) -> Result<f64> {

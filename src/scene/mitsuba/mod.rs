@@ -24,8 +24,11 @@
 //! | `shape` `sphere`: `center` (default 0), `radius` (default 1), `to_world` | `sphere` with the same fields (Mitsuba applies `to_world` after centre and radius, as we do) |
 //! | `shape` `obj`: `filename`, `face_normals`, `to_world` | `mesh`; `face_normals = true` ignores the file's normals |
 //! | `bsdf` `diffuse` (`reflectance`, default 0.5) | `diffuse` |
-//! | `bsdf` `conductor` with `material = "none"` (the default): `specular_reflectance` | `mirror` (named metals need a Fresnel conductor we do not have: error) |
-//! | `bsdf` `roughconductor` (`alpha` or `alpha_u`/`alpha_v`, `specular_reflectance`) | `ward` with no diffuse part, α as Ward's roughness, **with a warning**: our glossy model approximates the microfacet lobe |
+//! | `bsdf` `conductor` with `material = "none"` (the default) and no `eta`/`k`: `specular_reflectance` | `mirror` (the same perfect mirror) |
+//! | `bsdf` `conductor` with a named `material` (one of Mitsuba's 71; an unknown name is an error listing them) or `eta`/`k` (unbounded colours) | `conductor` |
+//! | `bsdf` `roughconductor` (`material` or `eta`/`k`, `specular_reflectance`, `distribution`, `alpha` or `alpha_u`/`alpha_v`, `sample_visible`) | `rough_conductor` with the same fields and Mitsuba's defaults (Beckmann, α 0.1, visible normals) |
+//! | `bsdf` `roughdielectric` (`int_ior`, `ext_ior`, `specular_reflectance`, `specular_transmittance`, the distribution's fields) | `rough_dielectric` with `ior = int_ior / ext_ior` |
+//! | `bsdf` `roughplastic` (`int_ior` default polypropylene 1.49, `ext_ior`, `diffuse_reflectance` default 0.5, `specular_reflectance`, `nonlinear`, the distribution's fields; isotropic) | `rough_plastic` with `ior = int_ior / ext_ior` |
 //! | `bsdf` `dielectric` (`int_ior`, `ext_ior`: numbers or Mitsuba's named media; defaults bk7 and air) | `dielectric` with `ior = int_ior / ext_ior` |
 //! | `bsdf` `thindielectric` (`int_ior`, `ext_ior`, `specular_reflectance`, `specular_transmittance`) | `thin_dielectric` with `ior = int_ior / ext_ior` and both filters (two-sided, as Mitsuba's) |
 //! | `bsdf` `twosided` around one reflecting BSDF | that BSDF: our reflection models are two-sided. A bare reflecting BSDF is one-sided in Mitsuba (black from behind), so it is read with a warning |

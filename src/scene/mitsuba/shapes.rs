@@ -152,7 +152,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             return Err(self.err(n, format!("unsupported emitter {kind:?} in a shape (area)")));
         }
         let mut o = self.obj(n)?;
-        let Some(radiance) = self.emitted_colour(&mut o, "radiance")? else {
+        let Some(radiance) = self.unbounded_colour(&mut o, "radiance")? else {
             return Err(self.err(n, "expected a radiance (<rgb name=\"radiance\" value=\"r, g, b\"/>)"));
         };
         if !radiance.iter().all(|&c| c >= 0.0) {

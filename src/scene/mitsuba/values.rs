@@ -98,9 +98,10 @@ impl<'a, 'i> Reader<'a, 'i> {
         self.colour_as(o, name, true)
     }
 
-    /// An emitted colour (`radiance`): as [`Reader::colour`], but spectra are converted as
-    /// emission (neither D65-weighted nor clamped).
-    pub(super) fn emitted_colour(&mut self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<Triple>> {
+    /// An unbounded colour (emitted `radiance`, a conductor's `eta` and `k`): as
+    /// [`Reader::colour`], but spectra are converted as Mitsuba converts unbounded ones (neither
+    /// D65-weighted nor clamped).
+    pub(super) fn unbounded_colour(&mut self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<Triple>> {
         self.colour_as(o, name, false)
     }
 

@@ -1,0 +1,174 @@
+//! The metals and microfacet materials of Mitsuba 3 (`conductor`, `rough_conductor`,
+//! `rough_dielectric`, `rough_plastic`): their fields checked one by one and the models built.
+
+use super::validate::{num, rgb, triple};
+use super::*;
+use crate::bsdf::{
+    Bsdf, Conductor, ConductorIor, Microfacet, MicrofacetType, RoughConductor, RoughDielectric, RoughPlastic,
+    named_conductors::NAMED_CONDUCTORS,
+};
+use crate::error::Result;
+use crate::scene::desc::{self, Roughness, Triple};
+use glam::Vec3;
+
+/// The largest roughness accepted (flatter than diffuse beyond).
+const MAX_ALPHA: f64 = 10.0;
+
+/// Mitsuba's default for rough plastic: polypropylene (1.49) in air.
+pub(crate) const PLASTIC_DEFAULT_IOR: f64 = 1.49;
+
+/// A microfacet distribution from Mitsuba's fields: `distribution`, `alpha` or both
+/// `alpha_u`/`alpha_v`, `sample_visible`.
+pub(super) fn microfacet(ctx: &Ctx, field: &str, r: &Roughness) -> Result<Microfacet> {
+    let f = |key: &str| format!("{field}.{key}");
+    let kind = match r.distribution.as_deref() {
+        None => MicrofacetType::Beckmann,
+        Some(name) => MicrofacetType::from_name(name).ok_or_else(|| {
+            ctx.err(
+                &f("distribution"),
+                format!("expected \"beckmann\" or \"ggx\", got {name:?}"),
+            )
+        })?,
+    };
+    let (alpha_u, alpha_v) = match (r.alpha, r.alpha_u, r.alpha_v) {
+        (a, None, None) => (a.unwrap_or(0.1), a.unwrap_or(0.1)),
+        (None, Some(u), Some(v)) => (u, v),
+        (Some(_), _, _) => {
+            return Err(ctx.err(&f("alpha"), "give either alpha or both alpha_u and alpha_v, not both"));
+        }
+        (None, Some(_), None) | (None, None, Some(_)) => {
+            return Err(ctx.err(field, "alpha_u and alpha_v must be given together"));
+        }
+    };
+    let keys = if r.alpha.is_some() {
+        ["alpha", "alpha"]
+    } else {
+        ["alpha_u", "alpha_v"]
+    };
+    for (key, a) in keys.into_iter().zip([alpha_u, alpha_v]) {
+        if !(a.is_finite() && (0.0..=MAX_ALPHA).contains(&a)) {
+            return Err(ctx.err(
+                &f(key),
+                format!("expected a roughness in [0, {}], got {}", num(MAX_ALPHA), num(a)),
+            ));
+        }
+    }
+    Ok(Microfacet::new(
+        kind,
+        alpha_u as f32,
+        alpha_v as f32,
+        r.sample_visible.unwrap_or(true),
+    ))
+}
+
+/// The complex index of refraction: a named conductor, or `eta` and `k` (defaults 0 and 1, a
+/// perfect mirror, as Mitsuba's `material = "none"`).
+pub(super) fn conductor_ior(ctx: &Ctx, field: &str, c: &desc::Conductor) -> Result<ConductorIor> {
+    let f = |key: &str| format!("{field}.{key}");
+    let specular_reflectance = match c.specular_reflectance {
+        Some(v) => rgb(ctx.unit_rgb(&f("specular_reflectance"), v)?),
+        None => Vec3::ONE,
+    };
+    let non_negative = |key: &str, v: Triple| -> Result<Vec3> {
+        if v.iter().all(|x| x.is_finite() && *x >= 0.0 && *x <= 1e4) {
+            Ok(rgb(v))
+        } else {
+            Err(ctx.err(
+                &f(key),
+                format!("expected each channel finite in [0, 1e4], got {}", triple(v)),
+            ))
+        }
+    };
+    let (eta, k) = match c.material.as_deref() {
+        Some(name) if name != "none" => {
+            if c.eta.is_some() || c.k.is_some() {
+                return Err(ctx.err(&f("material"), "give either a named material or eta and k, not both"));
+            }
+            let &(_, eta, k) = NAMED_CONDUCTORS.iter().find(|(n, _, _)| *n == name).ok_or_else(|| {
+                let names: Vec<&str> = NAMED_CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+                ctx.err(
+                    &f("material"),
+                    format!(
+                        "unknown conductor {name:?}; expected \"none\" or one of {}",
+                        names.join(", ")
+                    ),
+                )
+            })?;
+            (Vec3::from(eta), Vec3::from(k))
+        }
+        _ => (
+            c.eta.map_or(Ok(Vec3::ZERO), |v| non_negative("eta", v))?,
+            c.k.map_or(Ok(Vec3::ONE), |v| non_negative("k", v))?,
+        ),
+    };
+    Ok(ConductorIor {
+        eta,
+        k,
+        specular_reflectance,
+    })
+}
+
+/// A relative index of refraction that makes a visible interface: positive, finite, ≠ 1.
+fn interface_ior(ctx: &Ctx, field: &str, ior: f64) -> Result<f32> {
+    if ior > 0.0 && ior <= 100.0 && ior != 1.0 {
+        Ok(ior as f32)
+    } else {
+        Err(ctx.err(
+            field,
+            format!(
+                "expected a relative index of refraction in (0, 100], not 1, got {}",
+                num(ior)
+            ),
+        ))
+    }
+}
+
+fn unit_or_one(ctx: &Ctx, field: &str, v: Option<Triple>) -> Result<Vec3> {
+    v.map_or(Ok(Vec3::ONE), |v| Ok(rgb(ctx.unit_rgb(field, v)?)))
+}
+
+/// A smooth conductor.
+pub(super) fn conductor(ctx: &Ctx, field: &str, c: &desc::Conductor) -> Result<Bsdf> {
+    Ok(Bsdf::Conductor(Conductor {
+        ior: conductor_ior(ctx, field, c)?,
+    }))
+}
+
+pub(super) fn rough_conductor(ctx: &Ctx, field: &str, c: &desc::RoughConductor) -> Result<Bsdf> {
+    Ok(Bsdf::RoughConductor(RoughConductor {
+        ior: conductor_ior(ctx, field, &c.conductor())?,
+        distribution: microfacet(ctx, field, &c.roughness())?,
+    }))
+}
+
+pub(super) fn rough_dielectric(ctx: &Ctx, field: &str, m: &desc::RoughDielectric) -> Result<Bsdf> {
+    let f = |key: &str| format!("{field}.{key}");
+    Ok(Bsdf::RoughDielectric(RoughDielectric {
+        ior: interface_ior(ctx, &f("ior"), m.ior)?,
+        distribution: microfacet(ctx, field, &m.roughness())?,
+        specular_reflectance: unit_or_one(ctx, &f("specular_reflectance"), m.specular_reflectance)?,
+        specular_transmittance: unit_or_one(ctx, &f("specular_transmittance"), m.specular_transmittance)?,
+    }))
+}
+
+pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic) -> Result<Bsdf> {
+    let f = |key: &str| format!("{field}.{key}");
+    let distribution = microfacet(ctx, field, &m.roughness())?;
+    if !distribution.is_isotropic() {
+        return Err(ctx.err(
+            field,
+            "rough_plastic is isotropic (as in Mitsuba): give alpha, not different alpha_u and alpha_v",
+        ));
+    }
+    let diffuse = match m.diffuse_reflectance {
+        Some(v) => rgb(ctx.unit_rgb(&f("diffuse_reflectance"), v)?),
+        None => Vec3::splat(0.5),
+    };
+    Ok(Bsdf::RoughPlastic(RoughPlastic::new(
+        diffuse,
+        unit_or_one(ctx, &f("specular_reflectance"), m.specular_reflectance)?,
+        interface_ior(ctx, &f("ior"), m.ior.unwrap_or(PLASTIC_DEFAULT_IOR))?,
+        distribution,
+        m.nonlinear.unwrap_or(false),
+    )))
+}
