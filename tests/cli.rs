@@ -1231,3 +1231,30 @@ fn scene_parameters_on_the_command_line_are_checked() {
     assert_refused(&o, &["--param", "NAME=VALUE"]);
     assert!(!root.join("references").exists());
 }
+
+/// A reference of a Mitsuba scene rendered with `--param` names itself after the parameters
+/// and its sidecar's command repeats them, so that the command remakes the same reference.
+#[test]
+fn a_parametrised_reference_records_its_parameters() {
+    let dir = project();
+    let root = dir.path();
+    std::fs::write(
+        root.join("scenes/p.xml"),
+        r#"<scene version="3.0.0">
+    <default name="fov" value="40"/>
+    <sensor type="perspective">
+        <float name="fov" value="$fov"/>
+        <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter></shape>
+</scene>"#,
+    )
+    .unwrap();
+    let o = bench(root, &["reference", "scenes/p.xml", "--spp", "1", "--param", "fov=30"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sidecar = std::fs::read_to_string(root.join("references/p-fov-30.json")).unwrap();
+    let info: serde_json::Value = serde_json::from_str(&sidecar).unwrap();
+    let command = info["command"].as_str().unwrap();
+    assert!(command.starts_with("bench reference scenes/p.xml --param fov=30 --spp 1"), "{command}");
+}

@@ -358,15 +358,18 @@ fn approximations_and_ignored_settings_are_warned_about() {
     );
     let (scene, warnings) = load_xml(&scene_xml(&body)).unwrap();
     let all = warnings.join("\n");
-    for expected in ["integrator", "one-sided", "no BSDF"] {
+    for expected in ["integrator", "no BSDF"] {
         assert!(all.contains(expected), "no warning about {expected}: {all}");
     }
     // A real microfacet conductor now, not an approximation: Mitsuba's defaults (Beckmann,
     // the perfect mirror's η = 0, k = 1), the file's α.
-    let photon_bench::bsdf::Bsdf::RoughConductor(c) =
-        &scene.materials.iter().find(|m| m.name == "shape1").unwrap().bsdf
+    // Without `twosided` it is one-sided, as in Mitsuba.
+    let photon_bench::bsdf::Bsdf::OneSided(inner) = &scene.materials.iter().find(|m| m.name == "shape1").unwrap().bsdf
     else {
-        panic!("roughconductor became something else")
+        panic!("a bare roughconductor must be one-sided")
+    };
+    let photon_bench::bsdf::Bsdf::RoughConductor(c) = &**inner else {
+        panic!("roughconductor became {inner:?}")
     };
     assert_eq!(c.distribution.kind, photon_bench::bsdf::MicrofacetType::Beckmann);
     assert_eq!((c.distribution.alpha_u, c.distribution.alpha_v), (0.2, 0.2));
@@ -805,4 +808,52 @@ fn thin_dielectric_reads_and_round_trips() {
         "the test scene has a thin dielectric"
     );
     assert_same_scene(&a, &b, "thin dielectric round trip");
+}
+
+/// `one_sided` materials survive export and import: written without Mitsuba's `twosided`
+/// wrapper, read back as one-sided; two-sided ones keep the wrapper.
+#[test]
+fn one_sided_materials_round_trip_through_mitsuba_xml() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("s.toml");
+    std::fs::write(
+        &toml,
+        r#"
+[camera]
+eye = [0, 1, 4]
+look_at = [0, 1, 0]
+fov_y = 40
+resolution = [8, 6]
+[materials.front]
+type = "one_sided"
+bsdf = { type = "rough_plastic", diffuse_reflectance = [0.2, 0.4, 0.6], alpha = 0.3 }
+[materials.both]
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[shapes]]
+type = "quad"
+material = "front"
+center = [0, 0, 0]
+size = [2, 2]
+[[shapes]]
+type = "quad"
+material = "both"
+center = [0, 2, 0]
+size = [0.5, 0.5]
+facing = "-y"
+emission = { radiance = [1, 1, 1] }
+"#,
+    )
+    .unwrap();
+    let xml = dir.path().join("s.xml");
+    photon_bench::scene::export::export_file(&toml, &xml).unwrap();
+    let text = std::fs::read_to_string(&xml).unwrap();
+    assert!(text.contains("<bsdf type=\"roughplastic\" id=\"front\">"), "{text}");
+    assert!(text.contains("<bsdf type=\"twosided\" id=\"both\">"), "{text}");
+    let scene = photon_bench::scene::load::load_scene(&xml).unwrap();
+    let bsdf = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap().bsdf.clone();
+    assert!(
+        matches!(bsdf("front"), photon_bench::bsdf::Bsdf::OneSided(b) if matches!(*b, photon_bench::bsdf::Bsdf::RoughPlastic(_)))
+    );
+    assert!(matches!(bsdf("both"), photon_bench::bsdf::Bsdf::Lambertian(_)));
 }

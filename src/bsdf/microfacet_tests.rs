@@ -315,3 +315,38 @@ fn visible_and_all_normal_sampling_estimate_the_same_albedo() {
         }
     }
 }
+
+/// A one-sided model is its inner model on the front and black from behind, for evaluation,
+/// density and sampling alike (Mitsuba's sidedness of a BSDF without `twosided`).
+#[test]
+fn one_sided_models_are_black_from_behind() {
+    let inner = super::tests::rough_plastic(0.5, 1.49, microfacet(Ggx, 0.2, 0.2, true), false);
+    let one_sided = Bsdf::OneSided(Box::new(inner.clone()));
+    assert!(one_sided.validate().is_ok());
+    assert_eq!(one_sided.kind(), inner.kind());
+    let mut rng = Rng::for_task(11, [0, 0, 0]);
+    for wo in test_wos() {
+        for _ in 0..200 {
+            let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+            let wi = crate::sampling::sample_uniform_sphere(rng.uniform2());
+            let front = wo.z > 0.0 && wi.z > 0.0;
+            let (f, p) = (one_sided.eval(wo, wi, TransportMode::Radiance), one_sided.pdf(wo, wi));
+            if front {
+                assert_eq!(f, inner.eval(wo, wi, TransportMode::Radiance));
+                assert_eq!(p, inner.pdf(wo, wi));
+            } else {
+                assert_eq!((f, p), (Vec3::ZERO, 0.0));
+            }
+            let s = one_sided.sample(wo, u, u_lobe, TransportMode::Radiance);
+            if wo.z > 0.0 {
+                let t = inner.sample(wo, u, u_lobe, TransportMode::Radiance);
+                assert_eq!(s.map(|s| s.wi), t.map(|t| t.wi));
+            } else {
+                assert!(s.is_none());
+            }
+        }
+    }
+    // Transmitting models have two sides by nature; wrapping one is refused.
+    let glass = Bsdf::OneSided(Box::new(rough_dielectric(1.5, microfacet(Ggx, 0.2, 0.2, true))));
+    assert!(glass.validate().is_err());
+}

@@ -117,6 +117,9 @@ pub enum Bsdf {
     RoughConductor(RoughConductor),
     RoughDielectric(RoughDielectric),
     RoughPlastic(RoughPlastic),
+    /// A reflection model that is black when seen from behind (`wo` or `wi` below the shading
+    /// plane): Mitsuba 3's sidedness for a BSDF without its `twosided` wrapper.
+    OneSided(Box<Bsdf>),
 }
 
 impl BsdfSample {
@@ -149,6 +152,8 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.eval(wo, wi),
             Bsdf::RoughDielectric(b) => b.eval(wo, wi, mode),
             Bsdf::RoughPlastic(b) => b.eval(wo, wi),
+            Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.eval(wo, wi, mode),
+            Bsdf::OneSided(_) => Vec3::ZERO,
         }
     }
 
@@ -167,6 +172,8 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.pdf(wo, wi),
             Bsdf::RoughDielectric(b) => b.pdf(wo, wi),
             Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
+            Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.pdf(wo, wi),
+            Bsdf::OneSided(_) => 0.0,
         }
     }
 
@@ -185,12 +192,15 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.sample(wo, u),
             Bsdf::RoughDielectric(b) => b.sample(wo, u, u_lobe, mode),
             Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
+            Bsdf::OneSided(b) if wo.z > 0.0 => b.sample(wo, u, u_lobe, mode).filter(|s| s.wi.z > 0.0),
+            Bsdf::OneSided(_) => None,
         }
     }
 
     /// Path-grammar class: any diffuse component makes a surface [`SurfaceKind::Diffuse`].
     pub fn kind(&self) -> SurfaceKind {
         match self {
+            Bsdf::OneSided(b) => b.kind(),
             Bsdf::Lambertian(_) | Bsdf::DiffuseTransmission(_) => SurfaceKind::Diffuse,
             Bsdf::Mirror(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Conductor(_) => {
                 SurfaceKind::Specular
@@ -205,6 +215,9 @@ impl Bsdf {
 
     /// True when the model scatters light to the side opposite `wo` (transmission).
     pub fn is_transmissive(&self) -> bool {
+        if let Bsdf::OneSided(b) = self {
+            return b.is_transmissive();
+        }
         matches!(
             self,
             Bsdf::DiffuseTransmission(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::RoughDielectric(_)
@@ -234,6 +247,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.specular_reflectance.max(b.specular_transmittance),
             // The coating splits light between the two lobes: T ρ + (1 − T) R_s ≤ max(ρ, R_s).
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
+            Bsdf::OneSided(b) => b.albedo(),
         }
     }
 
@@ -337,6 +351,10 @@ impl Bsdf {
                 unit("specular_reflectance", b.specular_reflectance)?;
                 b.distribution.validate()
             }
+            Bsdf::OneSided(b) if b.is_transmissive() || matches!(**b, Bsdf::OneSided(_)) => Err(Error::new(
+                "one_sided wraps a reflecting model (not a transmitting one, nor another one_sided)",
+            )),
+            Bsdf::OneSided(b) => b.validate(),
         }
     }
 }

@@ -179,9 +179,11 @@ pub fn load(dir: &Path, scene: &Scene) -> Result<Reference> {
 }
 
 /// Renders a reference with `path` and writes the EXR, a PNG preview and the sidecar into
-/// `dir`. `on_pass` is called after each pass with the samples done so far.
+/// `dir`. `scene_params` are the Mitsuba scene parameters it was loaded with (for the sidecar's
+/// command). `on_pass` is called after each pass with the samples done so far.
 pub fn make(
     scene: &Scene,
+    scene_params: &[(String, String)],
     dir: &Path,
     spp: u32,
     seed: u64,
@@ -234,8 +236,12 @@ pub fn make(
         non_finite: film.non_finite(),
         noise,
         command: format!(
-            "bench reference {} --spp {spp} --seed {seed}{param_args}",
-            scene.source.display()
+            "bench reference {}{} --spp {spp} --seed {seed}{param_args}",
+            scene.source.display(),
+            scene_params
+                .iter()
+                .map(|(k, v)| format!(" --param {k}={v}"))
+                .collect::<String>()
         ),
     };
     write_exr(&image, &exr)?;
@@ -264,6 +270,7 @@ mod tests {
                     let dir = tempfile::tempdir().unwrap();
                     make(
                         &scene,
+                        &[],
                         dir.path(),
                         spp,
                         1000 + 2 * pair + k,

@@ -102,7 +102,10 @@ crate::declare_choice! {
 /// bounding-cone cosine bound this borrows]. Why: with power selection a weak light next to the
 /// shading point (Jensen 1995's bulb inside its lamp shade) is rarely picked although it
 /// dominates there. It costs O(#lights) per vertex, so scenes with more than
-/// [`LOCAL_SELECTION_MAX_LIGHTS`] emissive primitives fall back to power selection.
+/// [`LOCAL_SELECTION_MAX_LIGHTS`] emissive primitives fall back to power selection. `"uniform"`
+/// picks every emissive primitive with the same probability, Mitsuba 3's emitter selection (for
+/// scenes whose emitters are single shapes, such as spheres): with it a cross-check against
+/// Mitsuba compares estimators with the same noise, not only the same mean.
 ///
 /// Unbiasedness: a light gets weight 0 only when it provably contributes nothing at the
 /// point (one-sided emitter facing away, or entirely below the horizon of a reflect-only
@@ -110,7 +113,7 @@ crate::declare_choice! {
 /// exactly edge-on, whose contribution ∝ cos θ' vanishes with it). With MIS a zero-probability
 /// light is covered by BSDF sampling anyway, as long as the MIS weight uses the same pmf
 /// ([`crate::scene::light_selection::LightContext::pdf_w`]).
-pub enum LightSelection { Power = "power", Local = "local" }
+pub enum LightSelection { Power = "power", Local = "local", Uniform = "uniform" }
 }
 
 #[allow(clippy::derivable_impls)] // the derives live in `declare_choice!`

@@ -69,6 +69,9 @@
 //! ior = 1.49                        # coating, default 1.49 (polypropylene)
 //! alpha = 0.15
 //! nonlinear = false                 # optional, as Mitsuba
+//! [materials.matte_front]
+//! type = "one_sided"                # black from behind, as Mitsuba's BSDFs without `twosided`
+//! bsdf = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }   # any reflecting material
 //!
 //! # Shapes; every shape takes `material` (required), `transform` and `emission` (optional).
 //! [[shapes]]
@@ -246,6 +249,16 @@ pub enum MaterialDesc {
     RoughConductor(RoughConductor),
     RoughDielectric(RoughDielectric),
     RoughPlastic(RoughPlastic),
+    OneSided(OneSided),
+}
+
+/// A reflecting material that is black seen from behind, as Mitsuba 3's BSDFs are without their
+/// `twosided` wrapper (ours reflect on both sides otherwise).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OneSided {
+    /// Any reflecting material (not a dielectric, a sheet or diffuse transmission).
+    pub bsdf: Box<MaterialDesc>,
 }
 
 /// Lambertian reflection.

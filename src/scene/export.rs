@@ -101,86 +101,7 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
 
     for (name, m) in &desc.materials {
         let field = format!("materials.{name}");
-        let id = escape(name);
-        let twosided = |inner: String| format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n");
-        let bsdf = match m {
-            MaterialDesc::Diffuse(d) => twosided(format!(
-                "        <bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"{}\"/>\n        </bsdf>\n",
-                nums(&d.reflectance.0)
-            )),
-            MaterialDesc::Mirror(d) => twosided(format!(
-                "        <bsdf type=\"conductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
-                 <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
-                nums(&d.reflectance.0)
-            )),
-            MaterialDesc::Dielectric(d) => format!(
-                "    <bsdf type=\"dielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
-                 <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n",
-                d.ior
-            ),
-            MaterialDesc::ThinDielectric(d) => format!(
-                "    <bsdf type=\"thindielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
-                 <float name=\"ext_ior\" value=\"1\"/>\n        \
-                 <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        \
-                 <rgb name=\"specular_transmittance\" value=\"{}\"/>\n    </bsdf>\n",
-                d.ior,
-                nums(&d.reflectance.0),
-                nums(&d.transmittance.0)
-            ),
-            MaterialDesc::Ward(w) if w.diffuse.0 == [0.0; 3] => {
-                warnings.push(format!(
-                    "{file}: {field}: ward written as Mitsuba's roughconductor (Beckmann, same alpha): \
-                     similar, not equal lobes"
-                ));
-                twosided(format!(
-                    "        <bsdf type=\"roughconductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
-                     <string name=\"distribution\" value=\"beckmann\"/>\n            \
-                     <float name=\"alpha_u\" value=\"{}\"/>\n            <float name=\"alpha_v\" value=\"{}\"/>\n            \
-                     <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
-                    w.alpha_x,
-                    w.alpha_y,
-                    nums(&w.specular.0)
-                ))
-            }
-            MaterialDesc::Ward(_) => {
-                return Err(err(&field, "a ward with a diffuse part has no Mitsuba 3 equivalent"));
-            }
-            MaterialDesc::Conductor(c) => twosided(format!(
-                "        <bsdf type=\"conductor\">\n{}        </bsdf>\n",
-                conductor_props(c, INNER)
-            )),
-            MaterialDesc::RoughConductor(c) => twosided(format!(
-                "        <bsdf type=\"roughconductor\">\n{}{}        </bsdf>\n",
-                conductor_props(&c.conductor(), INNER),
-                roughness_props(&c.roughness(), INNER)
-            )),
-            MaterialDesc::RoughDielectric(d) => format!(
-                "    <bsdf type=\"roughdielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
-                 <float name=\"ext_ior\" value=\"1\"/>\n{}{}{}    </bsdf>\n",
-                d.ior,
-                optional_rgb("specular_reflectance", d.specular_reflectance, OUTER),
-                optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
-                roughness_props(&d.roughness(), OUTER)
-            ),
-            MaterialDesc::RoughPlastic(p) => twosided(format!(
-                "        <bsdf type=\"roughplastic\">\n            <float name=\"int_ior\" value=\"{}\"/>\n            \
-                 <float name=\"ext_ior\" value=\"1\"/>\n{}{}            <boolean name=\"nonlinear\" value=\"{}\"/>\n{}        </bsdf>\n",
-                p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
-                optional_rgb(
-                    "diffuse_reflectance",
-                    Some(p.diffuse_reflectance.unwrap_or(Fixed([0.5; 3]))),
-                    INNER
-                ),
-                optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
-                p.nonlinear.unwrap_or(false),
-                roughness_props(&p.roughness(), INNER)
-            )),
-            MaterialDesc::Phong(_) => return Err(err(&field, "phong has no Mitsuba 3 equivalent")),
-            MaterialDesc::DiffuseTransmission(_) => {
-                return Err(err(&field, "diffuse_transmission has no Mitsuba 3 equivalent"));
-            }
-        };
-        x.push_str(&bsdf);
+        x.push_str(&material_xml(m, &escape(name), &field, &file, &mut warnings)?);
     }
 
     let scene_dir = scene.parent().unwrap_or(Path::new(""));
@@ -310,6 +231,107 @@ fn escape(s: &str) -> String {
         .replace('>', "&gt;")
         .replace('"', "&quot;")
         .replace('\'', "&apos;")
+}
+
+/// One material as a top-level `<bsdf id>`: reflecting models wrapped in `twosided` (ours reflect
+/// on both sides), a `one_sided` one bare (Mitsuba's own sidedness), dielectrics as they are.
+fn material_xml(m: &MaterialDesc, id: &str, field: &str, file: &str, warnings: &mut Vec<String>) -> Result<String> {
+    let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
+    let twosided = |inner: String| format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n");
+    let bsdf = match m {
+        MaterialDesc::Diffuse(d) => twosided(format!(
+            "        <bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"{}\"/>\n        </bsdf>\n",
+            nums(&d.reflectance.0)
+        )),
+        MaterialDesc::Mirror(d) => twosided(format!(
+            "        <bsdf type=\"conductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
+             <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
+            nums(&d.reflectance.0)
+        )),
+        MaterialDesc::Dielectric(d) => format!(
+            "    <bsdf type=\"dielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
+             <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n",
+            d.ior
+        ),
+        MaterialDesc::ThinDielectric(d) => format!(
+            "    <bsdf type=\"thindielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
+             <float name=\"ext_ior\" value=\"1\"/>\n        \
+             <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        \
+             <rgb name=\"specular_transmittance\" value=\"{}\"/>\n    </bsdf>\n",
+            d.ior,
+            nums(&d.reflectance.0),
+            nums(&d.transmittance.0)
+        ),
+        MaterialDesc::Ward(w) if w.diffuse.0 == [0.0; 3] => {
+            warnings.push(format!(
+                "{file}: {field}: ward written as Mitsuba's roughconductor (Beckmann, same alpha): \
+                 similar, not equal lobes"
+            ));
+            twosided(format!(
+                "        <bsdf type=\"roughconductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
+                 <string name=\"distribution\" value=\"beckmann\"/>\n            \
+                 <float name=\"alpha_u\" value=\"{}\"/>\n            <float name=\"alpha_v\" value=\"{}\"/>\n            \
+                 <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
+                w.alpha_x,
+                w.alpha_y,
+                nums(&w.specular.0)
+            ))
+        }
+        MaterialDesc::Ward(_) => {
+            return Err(err(field, "a ward with a diffuse part has no Mitsuba 3 equivalent"));
+        }
+        MaterialDesc::Conductor(c) => twosided(format!(
+            "        <bsdf type=\"conductor\">\n{}        </bsdf>\n",
+            conductor_props(c, INNER)
+        )),
+        MaterialDesc::RoughConductor(c) => twosided(format!(
+            "        <bsdf type=\"roughconductor\">\n{}{}        </bsdf>\n",
+            conductor_props(&c.conductor(), INNER),
+            roughness_props(&c.roughness(), INNER)
+        )),
+        MaterialDesc::RoughDielectric(d) => format!(
+            "    <bsdf type=\"roughdielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
+             <float name=\"ext_ior\" value=\"1\"/>\n{}{}{}    </bsdf>\n",
+            d.ior,
+            optional_rgb("specular_reflectance", d.specular_reflectance, OUTER),
+            optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
+            roughness_props(&d.roughness(), OUTER)
+        ),
+        MaterialDesc::RoughPlastic(p) => twosided(format!(
+            "        <bsdf type=\"roughplastic\">\n            <float name=\"int_ior\" value=\"{}\"/>\n            \
+             <float name=\"ext_ior\" value=\"1\"/>\n{}{}            <boolean name=\"nonlinear\" value=\"{}\"/>\n{}        </bsdf>\n",
+            p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
+            optional_rgb(
+                "diffuse_reflectance",
+                Some(p.diffuse_reflectance.unwrap_or(Fixed([0.5; 3]))),
+                INNER
+            ),
+            optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
+            p.nonlinear.unwrap_or(false),
+            roughness_props(&p.roughness(), INNER)
+        )),
+        MaterialDesc::OneSided(o) => {
+            // The reflecting BSDF without the `twosided` wrapper, carrying the id itself.
+            let wrapped = material_xml(&o.bsdf, id, field, file, warnings)?;
+            let mut lines: Vec<&str> = wrapped.lines().collect();
+            if lines.len() < 3 || !lines[0].contains("type=\"twosided\"") {
+                return Err(err(field, "one_sided wraps a reflecting material"));
+            }
+            lines.remove(0);
+            lines.pop();
+            let inner: Vec<&str> = lines.iter().map(|l| l.strip_prefix("    ").unwrap_or(l)).collect();
+            let mut text = inner.join("\n") + "\n";
+            if let Some(end) = text.find('>') {
+                text.insert_str(end, &format!(" id=\"{id}\""));
+            }
+            text
+        }
+        MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
+        MaterialDesc::DiffuseTransmission(_) => {
+            return Err(err(field, "diffuse_transmission has no Mitsuba 3 equivalent"));
+        }
+    };
+    Ok(bsdf)
 }
 
 /// Indentation of the properties of a top-level BSDF and of one nested in `twosided`.

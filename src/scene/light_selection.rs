@@ -102,8 +102,10 @@ pub struct LightContext {
     /// needed otherwise and not computed).
     pub receiver: Receiver,
     sphere: SphereSampling,
-    /// The sum of the local weights of every light; `None` for power selection.
+    /// The sum of the local weights of every light; `None` for power and uniform selection.
     local_total: Option<f32>,
+    /// Every light with the same probability (Mitsuba 3's emitter selection).
+    uniform: bool,
 }
 
 /// Scratch space for the local weights of every light at one receiver.
@@ -140,6 +142,7 @@ impl LightSampling {
                 receiver: r,
                 sphere: self.sphere,
                 local_total: Some(total),
+                uniform: false,
             };
         }
         LightContext {
@@ -150,6 +153,7 @@ impl LightSampling {
             },
             sphere: self.sphere,
             local_total: None,
+            uniform: self.selection == LightSelection::Uniform,
         }
     }
 }
@@ -160,6 +164,10 @@ impl LightContext {
     /// [`LightSampling::at`] filled for this context.
     #[inline]
     pub fn choose(&self, scene: &Scene, weights: &Option<LocalWeights>, u: f32) -> Option<(usize, f32)> {
+        if self.uniform {
+            let n = scene.lights.len();
+            return (n > 0).then(|| (((u * n as f32) as usize).min(n - 1), 1.0 / n as f32));
+        }
         let (Some(total), Some(weights)) = (self.local_total, weights) else {
             let (i, pmf, _) = scene.light_selection.sample(u);
             return Some((i, pmf));
@@ -188,6 +196,7 @@ impl LightContext {
     #[inline]
     pub fn pmf(&self, scene: &Scene, i: usize) -> f32 {
         match self.local_total {
+            None if self.uniform => 1.0 / scene.lights.len() as f32,
             None => scene.light_selection.pmf(i),
             Some(total) if total > 0.0 => {
                 let light = &scene.lights[i];

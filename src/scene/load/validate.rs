@@ -257,6 +257,22 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
         | MaterialDesc::RoughConductor(_)
         | MaterialDesc::RoughDielectric(_)
         | MaterialDesc::RoughPlastic(_) => {}
+        MaterialDesc::OneSided(m) => {
+            if matches!(
+                *m.bsdf,
+                MaterialDesc::Dielectric(_)
+                    | MaterialDesc::ThinDielectric(_)
+                    | MaterialDesc::RoughDielectric(_)
+                    | MaterialDesc::DiffuseTransmission(_)
+                    | MaterialDesc::OneSided(_)
+            ) {
+                return Err(ctx.err(
+                    &f("bsdf"),
+                    "expected a reflecting material (a dielectric, a sheet or diffuse transmission has two sides by nature)",
+                ));
+            }
+            validate_material(ctx, &f("bsdf"), &m.bsdf)?;
+        }
     }
     Ok(())
 }
@@ -296,6 +312,7 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Result<Bsdf
         MaterialDesc::RoughConductor(m) => rough::rough_conductor(ctx, field, m)?,
         MaterialDesc::RoughDielectric(m) => rough::rough_dielectric(ctx, field, m)?,
         MaterialDesc::RoughPlastic(m) => rough::rough_plastic(ctx, field, m)?,
+        MaterialDesc::OneSided(m) => Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf)?)),
     };
     // The description was validated field by field; this is the models' own check, kept as a
     // second line of defence (f64 → f32 rounding could tip a sum over 1).

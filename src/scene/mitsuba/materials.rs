@@ -32,17 +32,17 @@ impl<'a, 'i> Reader<'a, 'i> {
             return Ok(m);
         }
         let m = self.one_bsdf(n)?;
-        if !matches!(
-            m,
-            MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_) | MaterialDesc::RoughDielectric(_)
-        ) {
-            self.warn(
-                n,
-                "one-sided in Mitsuba 3 (black from behind), two-sided in photon-bench; wrap it in \
-                 <bsdf type=\"twosided\"> for equal renders",
-            );
-        }
-        Ok(m)
+        // Without `twosided`, Mitsuba's reflecting BSDFs are black from behind: so is ours.
+        Ok(
+            if matches!(
+                m,
+                MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_) | MaterialDesc::RoughDielectric(_)
+            ) {
+                m
+            } else {
+                MaterialDesc::OneSided(desc::OneSided { bsdf: Box::new(m) })
+            },
+        )
     }
 
     pub(super) fn one_bsdf(&mut self, n: Node<'a, 'i>) -> Result<MaterialDesc> {

@@ -166,6 +166,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
         file,
         doc: &doc,
         dir,
+        root_dir: dir,
         search: Vec::new(),
         including: vec![
             std::fs::canonicalize(dir.join(Path::new(file).file_name().unwrap_or_default())).unwrap_or_default(),
@@ -174,6 +175,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
         warnings: Vec::new(),
         materials: BTreeMap::new(),
         bsdf_ids: BTreeMap::new(),
+        emitter_ids: BTreeMap::new(),
     };
     let imported = r.scene(doc.root_element())?;
     if let Some((name, _)) = params.iter().find(|(name, _)| !used.borrow().contains(name)) {
@@ -207,6 +209,9 @@ struct Reader<'a, 'i> {
     file: &'a str,
     doc: &'a Document<'i>,
     dir: &'a Path,
+    /// The directory of the scene file being imported (not of an included one): Mitsuba's file
+    /// resolver looks there, not in an included file's directory, for the files it names.
+    root_dir: &'a Path,
     /// `<path value>` directories, the latest first: relative file names are looked up there
     /// before `dir` (Mitsuba's file resolver).
     search: Vec<std::path::PathBuf>,
@@ -219,6 +224,8 @@ struct Reader<'a, 'i> {
     materials: BTreeMap<String, MaterialDesc>,
     /// Material name of each top-level `<bsdf id>`.
     bsdf_ids: BTreeMap<String, String>,
+    /// Each top-level `<emitter type="area" id>`, for shapes to `<ref>`.
+    emitter_ids: BTreeMap<String, crate::scene::desc::EmissionDesc>,
 }
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -388,14 +395,27 @@ impl<'a, 'i> Reader<'a, 'i> {
             self.defaults.entry(name).or_insert(value);
         }
         let elements: Vec<Node> = root.children().filter(Node::is_element).collect();
-        // Named BSDFs first, so that a <ref> may precede the definition it names.
+        // Named BSDFs and area emitters first, so that a <ref> may precede the definition it
+        // names.
         for &n in &elements {
+            if n.has_tag_name("emitter") && n.attribute("type") == Some("area") {
+                let Some(id) = self.attr(n, "id")? else {
+                    return Err(self.err(n, "a top-level area <emitter> needs an `id` for shapes to <ref> it"));
+                };
+                let e = self.area(n)?;
+                if self.emitter_ids.insert(id.clone(), e).is_some() || self.bsdf_ids.contains_key(&id) {
+                    return Err(self.err(n, format!("id {id:?} is used twice")));
+                }
+            }
             if n.has_tag_name("bsdf") {
                 let Some(id) = self.attr(n, "id")? else {
                     return Err(self.err(n, "a top-level <bsdf> needs an `id` for shapes to <ref> it"));
                 };
                 let m = self.bsdf(n)?;
-                if self.bsdf_ids.contains_key(&id) || self.materials.contains_key(&id) {
+                if self.bsdf_ids.contains_key(&id)
+                    || self.materials.contains_key(&id)
+                    || self.emitter_ids.contains_key(&id)
+                {
                     return Err(self.err(n, format!("id {id:?} is used twice")));
                 }
                 self.bsdf_ids.insert(id.clone(), id.clone());
@@ -430,6 +450,8 @@ impl<'a, 'i> Reader<'a, 'i> {
                     n,
                     "ignored: the experiment file chooses the strategy (Mitsuba's max_depth N is our max_depth N - 1)",
                 ),
+                "sampler" => self.warn(n, "ignored: the experiment file sets the samples per pixel"),
+                "emitter" if n.attribute("type") == Some("area") => {}
                 "emitter" => {
                     return Err(self.err(
                         n,
@@ -440,7 +462,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     return Err(self.err(
                         n,
                         format!(
-                            "unsupported element <{other}> (photon-bench reads default, include, path, sensor, bsdf, shape and integrator)"
+                            "unsupported element <{other}> (photon-bench reads default, include, path, sensor, bsdf, shape, integrator and sampler)"
                         ),
                     ));
                 }
@@ -449,13 +471,19 @@ impl<'a, 'i> Reader<'a, 'i> {
         Ok(())
     }
 
-    /// `<include filename>`: the file (found as [`Reader::resolve`] says) must be a `<scene>`;
-    /// its elements are read here, sharing this scene's defaults, named BSDFs and search
-    /// directories. Relative names inside it are looked up in the `<path>` directories, then
-    /// in the included file's own directory.
+    /// `<include filename>`: the file (looked up first in the including file's directory, as
+    /// Mitsuba's parser does, then as [`Reader::resolve`] says) must be a `<scene>`; its elements
+    /// are read here, sharing this scene's defaults, named BSDFs and search directories.
+    /// Relative names inside it resolve as in the main file (the `<path>` directories, then the
+    /// main file's directory), then in the included file's own directory.
     fn include(&mut self, n: Node<'a, 'i>, parts: &mut SceneParts) -> Result<()> {
         let name = self.required(n, "filename")?;
-        let path = self.resolve(&name);
+        let own = self.dir.join(&name);
+        let path = if Path::new(&name).is_relative() && own.is_file() {
+            own
+        } else {
+            self.resolve(&name)
+        };
         if self.including.len() > MAX_INCLUDE_DEPTH {
             return Err(self.err(n, format!("includes nest deeper than {MAX_INCLUDE_DEPTH} files")));
         }
@@ -481,18 +509,21 @@ impl<'a, 'i> Reader<'a, 'i> {
             file: &file,
             doc: &doc,
             dir: &dir,
+            root_dir: self.root_dir,
             search: self.search.clone(),
             including,
             defaults: std::mem::take(&mut self.defaults),
             warnings: std::mem::take(&mut self.warnings),
             materials: std::mem::take(&mut self.materials),
             bsdf_ids: std::mem::take(&mut self.bsdf_ids),
+            emitter_ids: std::mem::take(&mut self.emitter_ids),
         };
         let read = inner.scene_elements(doc.root_element(), parts);
         self.defaults = inner.defaults;
         self.warnings = inner.warnings;
         self.materials = inner.materials;
         self.bsdf_ids = inner.bsdf_ids;
+        self.emitter_ids = inner.emitter_ids;
         self.including = inner.including;
         self.including.pop();
         read?;
@@ -501,8 +532,9 @@ impl<'a, 'i> Reader<'a, 'i> {
     }
 
     /// A relative file name as Mitsuba's file resolver finds it: in the `<path>` directories
-    /// (the latest first), then in this file's directory; absolute names as they are. A name
-    /// found nowhere resolves against this file's directory, so that the error names it there.
+    /// (the latest first), then in the main scene file's directory; beyond Mitsuba, then in the
+    /// directory of the (included) file that names it. Absolute names as they are. A name found
+    /// nowhere resolves against the naming file's directory, so that the error names it there.
     pub(super) fn resolve(&self, name: &str) -> std::path::PathBuf {
         let p = Path::new(name);
         if p.is_absolute() {
@@ -510,6 +542,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         self.search
             .iter()
+            .chain([&self.root_dir.to_path_buf(), &self.dir.to_path_buf()])
             .map(|d| d.join(p))
             .find(|c| c.is_file())
             .unwrap_or_else(|| self.dir.join(p))

@@ -32,6 +32,9 @@ impl<'a, 'i> Reader<'a, 'i> {
                 self.warn(p, "ignored: photon-bench's camera has no clipping planes");
             }
         }
+        // A pinhole has everything in focus; Mitsuba's `perspective` ignores it too (only
+        // `thinlens` reads it).
+        self.float(&mut o, "focus_distance")?;
         let m = match self.transform(&mut o, "to_world")? {
             Some((_, m)) => m,
             None => DMat4::IDENTITY,

@@ -18,6 +18,12 @@ impl<'a, 'i> Reader<'a, 'i> {
         let mut emission = None;
         for c in o.children.clone() {
             match c.tag_name().name() {
+                "ref" if c.attribute("id").is_some_and(|id| self.emitter_ids.contains_key(id)) => {
+                    if emission.is_some() {
+                        return Err(self.err(c, "a second emitter for this shape"));
+                    }
+                    emission = c.attribute("id").and_then(|id| self.emitter_ids.get(id)).cloned();
+                }
                 "bsdf" | "ref" if material.is_some() => {
                     return Err(self.err(c, "a second BSDF for this shape"));
                 }
@@ -36,7 +42,10 @@ impl<'a, 'i> Reader<'a, 'i> {
                 "ref" => {
                     let id = self.required(c, "id")?;
                     let Some(name) = self.bsdf_ids.get(&id) else {
-                        return Err(self.err(c, format!("no top-level <bsdf id=\"{id}\"> to refer to")));
+                        return Err(self.err(
+                            c,
+                            format!("no top-level <bsdf id=\"{id}\"> or area <emitter id=\"{id}\"> to refer to"),
+                        ));
                     };
                     material = Some(name.clone());
                 }
@@ -61,13 +70,12 @@ impl<'a, 'i> Reader<'a, 'i> {
                 let name = "mitsuba-default".to_string();
                 self.materials
                     .entry(name.clone())
-                    .or_insert(MaterialDesc::Diffuse(desc::Diffuse {
-                        reflectance: Fixed([0.5; 3]),
+                    .or_insert(MaterialDesc::OneSided(desc::OneSided {
+                        bsdf: Box::new(MaterialDesc::Diffuse(desc::Diffuse {
+                            reflectance: Fixed([0.5; 3]),
+                        })),
                     }));
-                self.warn(
-                    n,
-                    "no BSDF: Mitsuba's default diffuse 0.5 (one-sided in Mitsuba, two-sided in photon-bench)",
-                );
+                self.warn(n, "no BSDF: Mitsuba's default, a one-sided diffuse 0.5");
                 name
             }
         };
