@@ -1256,5 +1256,8 @@ fn a_parametrised_reference_records_its_parameters() {
     let sidecar = std::fs::read_to_string(root.join("references/p-fov-30.json")).unwrap();
     let info: serde_json::Value = serde_json::from_str(&sidecar).unwrap();
     let command = info["command"].as_str().unwrap();
-    assert!(command.starts_with("bench reference scenes/p.xml --param fov=30 --spp 1"), "{command}");
+    assert!(
+        command.starts_with("bench reference scenes/p.xml --param fov=30 --spp 1"),
+        "{command}"
+    );
 }

@@ -381,8 +381,8 @@ fn approximations_and_ignored_settings_are_warned_about() {
 fn bad_xml_is_refused_naming_the_element() {
     let cases: Vec<(String, &[&str])> = vec![
         (
-            scene_xml(&format!("{LIGHT}<shape type=\"ply\"/>")),
-            &["<shape type=\"ply\">", "unsupported shape"],
+            scene_xml(&format!("{LIGHT}<shape type=\"disk\"/>")),
+            &["<shape type=\"disk\">", "unsupported shape"],
         ),
         (
             scene_xml(&format!("{LIGHT}<emitter type=\"constant\"/>")),
@@ -856,4 +856,48 @@ emission = { radiance = [1, 1, 1] }
         matches!(bsdf("front"), photon_bench::bsdf::Bsdf::OneSided(b) if matches!(*b, photon_bench::bsdf::Bsdf::RoughPlastic(_)))
     );
     assert!(matches!(bsdf("both"), photon_bench::bsdf::Bsdf::Lambertian(_)));
+}
+
+/// A `ply` shape loads with Mitsuba's smooth normals when the file has none (angle-weighted
+/// vertex normals, here on a tetrahedron's corner) and flat with `face_normals`; a file with
+/// the wrong extension or a `shape_index` on a PLY is refused naming the element.
+#[test]
+fn ply_shapes_load_smooth_as_mitsuba_and_flat_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+element face 3\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n";
+    std::fs::write(dir.path().join("corner.ply"), ply).unwrap();
+    let scene = |props: &str| {
+        let text = scene_xml(&format!(
+            "{LIGHT}<shape type=\"ply\"><string name=\"filename\" value=\"corner.ply\"/>{props}</shape>"
+        ));
+        let path = dir.path().join("s.xml");
+        std::fs::write(&path, text).unwrap();
+        load_scene_with_stats(&path).map(|(s, _)| s)
+    };
+    let smooth = scene("").unwrap();
+    let normals: Vec<[Vec3; 3]> = smooth.attrs.iter().filter_map(|a| a.normals).collect();
+    assert_eq!(normals.len(), 3, "every triangle of the PLY gets vertex normals");
+    // At the shared corner (the origin) the three faces meet at right angles: the normal is
+    // the diagonal, pointing away from the solid's inside (−(1, 1, 1)/√3).
+    let corner = normals[0][0];
+    assert!((corner + Vec3::ONE.normalize()).length() < 1e-5, "{corner}");
+    let flat = scene("<boolean name=\"face_normals\" value=\"true\"/>").unwrap();
+    assert!(flat.attrs.iter().all(|a| a.normals.is_none()));
+    let err = scene("<integer name=\"shape_index\" value=\"1\"/>")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        err.contains("shape_index") && err.contains("<shape type=\"ply\">"),
+        "{err}"
+    );
+    std::fs::write(dir.path().join("corner.obj"), "v 0 0 0\n").unwrap();
+    let text = scene_xml(&format!(
+        "{LIGHT}<shape type=\"ply\"><string name=\"filename\" value=\"corner.obj\"/></shape>"
+    ));
+    let path = dir.path().join("s2.xml");
+    std::fs::write(&path, text).unwrap();
+    let err = load_scene_with_stats(&path).err().unwrap().to_string();
+    assert!(err.contains("ending in .ply"), "{err}");
 }

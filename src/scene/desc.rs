@@ -104,10 +104,13 @@
 //! center = [0.37, 0.1, 0.18]
 //! radius = 0.1                      # > 0; transforms must keep it a sphere (uniform scale)
 //! [[shapes]]
-//! type = "mesh"                     # Wavefront OBJ, triangulated; MTL materials are ignored
-//! material = "white"
+//! type = "mesh"                     # Wavefront OBJ (triangulated; MTL materials are ignored),
+//! material = "white"                #   Stanford PLY or Mitsuba .serialized, by the extension
 //! file = "meshes/bunny.obj"         # relative to this scene file
-//! face_normals = false              # optional: true ignores the OBJ's vertex normals
+//! face_normals = false              # optional: true ignores the file's vertex normals
+//! smooth_normals = false            # optional: true shades a file without normals smooth, as
+//!                                   #   Mitsuba (angle-weighted); false shades it flat
+//! # shape_index = 0                 # optional, .serialized only: which mesh of the file
 //! transform = [{ matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] },
 //!              { rotate_x = -90 }, { translate = [0, 0.1, 0] }]
 //!
@@ -490,6 +493,13 @@ pub struct Mesh {
     /// false). Mitsuba's `obj` option of the same name.
     #[serde(default)]
     pub face_normals: bool,
+    /// For a file without vertex normals: compute smooth ones as Mitsuba 3 does (angle-weighted
+    /// face normals) instead of shading flat (default false). The Mitsuba importer sets it
+    /// unless the scene asks for `face_normals`.
+    #[serde(default)]
+    pub smooth_normals: bool,
+    /// Which mesh of a Mitsuba `.serialized` file (default 0); other formats refuse it.
+    pub shape_index: Option<u32>,
     pub transform: Option<TransformDesc>,
     pub emission: Option<EmissionDesc>,
 }

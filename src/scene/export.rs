@@ -159,23 +159,40 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
                 } else {
                     path.canonicalize().unwrap_or(path.clone())
                 };
-                let text = crate::util::read_input(&path, "mesh", crate::util::MAX_MESH_INPUT)
-                    .map_err(|e| err(&format!("{field}.file"), &format!("{e}")))?;
-                let has_normals = text
-                    .split(|&b| b == b'\n')
-                    .any(|l| l.trim_ascii_start().starts_with(b"vn "));
+                let kind = match path
+                    .extension()
+                    .and_then(|e| e.to_str())
+                    .map(str::to_ascii_lowercase)
+                    .as_deref()
+                {
+                    Some("ply") => "ply",
+                    Some("serialized") => "serialized",
+                    _ => "obj",
+                };
+                // Whether the file has normals decides nothing when the scene smooths (both
+                // renderers then shade smooth) and everything when it does not: a file without
+                // normals is shaded flat here, so Mitsuba must be told to.
+                let has_normals = {
+                    let bytes = crate::util::read_input(&path, "mesh", crate::util::MAX_MESH_INPUT)
+                        .map_err(|e| err(&format!("{field}.file"), &format!("{e}")))?;
+                    crate::scene::load::mesh_file_has_normals(&bytes, kind, m.shape_index)
+                        .map_err(|e| err(&format!("{field}.file"), &e))?
+                };
                 let _ = writeln!(
                     props,
                     "        <string name=\"filename\" value=\"{}\"/>",
                     escape(&written.display().to_string())
                 );
-                if m.face_normals || !has_normals {
+                if m.face_normals || (!has_normals && !m.smooth_normals) {
                     let _ = writeln!(props, "        <boolean name=\"face_normals\" value=\"true\"/>");
+                }
+                if let Some(i) = m.shape_index {
+                    let _ = writeln!(props, "        <integer name=\"shape_index\" value=\"{i}\"/>");
                 }
                 if transform.is_some() {
                     props.push_str(&matrix(t));
                 }
-                "obj"
+                kind
             }
         };
         let _ = writeln!(x, "    <shape type=\"{kind}\">");

@@ -1,6 +1,7 @@
 //! Meshing: every shape to primitives (quads, boxes, spheres, OBJ meshes through tobj,
 //! `subdivide`), rounded to f32 only after validation; degenerate triangles refused or counted.
 
+use super::mesh_formats::{TriMesh, angle_weighted_normals, parse_ply, parse_serialized};
 use super::*;
 use crate::error::Result;
 use crate::geometry::Primitive;
@@ -265,77 +266,81 @@ impl Builder<'_> {
         Ok(())
     }
 
+    /// A mesh file: OBJ (through tobj), PLY or Mitsuba `.serialized`, chosen by the extension.
     pub(super) fn mesh(&mut self, field: &str, m: &desc::Mesh, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
         let ctx = self.ctx;
         let file_field = format!("{field}.file");
         let path = self.dir.join(&m.file);
-        let shown = path.display();
+        let shown = path.display().to_string();
         let bytes = read_regular_file(&path).map_err(|e| ctx.err(&file_field, format!("cannot read {shown}: {e}")))?;
         self.stats.files_read.push(path.clone());
-        let obj_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        // MTL libraries are read for the hash only; the scene's `material` is used, so tobj
-        // gets none (which also keeps its MTL parser, which can panic on short colour lines,
-        // away from our inputs).
-        let mtl = std::cell::RefCell::new(Vec::<(PathBuf, Vec<u8>)>::new());
-        let options = tobj::LoadOptions {
-            triangulate: true,
-            single_index: true,
-            ignore_points: true,
-            ignore_lines: true,
-        };
-        let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            tobj::load_obj_buf(&mut &bytes[..], &options, |p| {
-                let p = obj_dir.join(p);
-                if let Ok(b) = read_regular_file(&p) {
-                    mtl.borrow_mut().push((p, b));
-                }
-                Err(tobj::LoadError::GenericFailure)
-            })
-        }));
-        let models = match parsed {
-            Ok(Ok((models, _materials))) => models,
-            Ok(Err(e)) => return Err(ctx.err(&file_field, format!("{shown}: {e}"))),
-            Err(_) => {
-                return Err(ctx.err(&file_field, format!("{shown}: the OBJ parser failed")));
+        let extension = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        if m.shape_index.is_some() && extension != "serialized" {
+            return Err(ctx.err(
+                &format!("{field}.shape_index"),
+                "only a .serialized file holds several meshes",
+            ));
+        }
+        let (meshes, face_normals) = match extension.as_str() {
+            "obj" => (self.obj_meshes(&file_field, &path, &bytes)?, m.face_normals),
+            "ply" => (
+                vec![parse_ply(&bytes).map_err(|e| ctx.err(&file_field, format!("{shown}: {e}")))?],
+                m.face_normals,
+            ),
+            "serialized" => {
+                let (mesh, flat) = parse_serialized(&bytes, m.shape_index.unwrap_or(0))
+                    .map_err(|e| ctx.err(&file_field, format!("{shown}: {e}")))?;
+                (vec![mesh], m.face_normals || flat)
+            }
+            _ => {
+                return Err(ctx.err(
+                    &file_field,
+                    format!("{shown}: expected a mesh file ending in .obj, .ply or .serialized"),
+                ));
             }
         };
         self.hashed.push(bytes);
-        for (p, b) in mtl.into_inner() {
-            self.stats.files_read.push(p);
-            self.hashed.push(b);
-        }
-
         let (mut added, mut skipped) = (0usize, 0usize);
-        for model in &models {
-            let mesh = &model.mesh;
-            let pos = &mesh.positions;
-            if let Some(bad) = pos.iter().position(|x| !x.is_finite() || x.abs() as f64 > MAX_COORD) {
+        for mesh in &meshes {
+            if let Some(bad) = mesh
+                .positions
+                .iter()
+                .position(|p| !p.is_finite() || p.abs().max_element() > MAX_COORD)
+            {
                 return Err(ctx.err(
                     &file_field,
                     format!(
                         "{shown}: vertex {} of object {:?} has a non-finite or huge coordinate",
-                        bad / 3 + 1,
-                        model.name
+                        bad + 1,
+                        mesh.name
                     ),
                 ));
             }
-            let n_vertices = pos.len() / 3;
-            let has_normals = !m.face_normals && !mesh.normals.is_empty() && mesh.normals.len() == pos.len();
-            let vertex = |i: usize| DVec3::new(pos[3 * i] as f64, pos[3 * i + 1] as f64, pos[3 * i + 2] as f64);
-            let normal = |i: usize| {
-                let n = &mesh.normals;
-                DVec3::new(n[3 * i] as f64, n[3 * i + 1] as f64, n[3 * i + 2] as f64)
+            let normals: Option<Vec<DVec3>> = if face_normals {
+                None
+            } else if let Some(n) = mesh.normals.as_ref().filter(|n| n.len() == mesh.positions.len()) {
+                Some(n.clone())
+            } else if m.smooth_normals {
+                // Mitsuba computes them from the transformed positions; back to the file's
+                // frame (normal matrix⁻¹ = Mᵀ) for `triangle`, which maps them forward again.
+                let world: Vec<DVec3> = mesh.positions.iter().map(|&p| xf.point(p)).collect();
+                let linear = xf.m.matrix3.transpose();
+                Some(
+                    angle_weighted_normals(&world, &mesh.triangles)
+                        .into_iter()
+                        .map(|n| linear * n)
+                        .collect(),
+                )
+            } else {
+                None
             };
-            for tri in mesh.indices.chunks(3) {
-                let &[i, j, k] = tri else {
-                    return Err(ctx.err(&file_field, format!("{shown}: a face is not a triangle")));
-                };
-                let idx = [i as usize, j as usize, k as usize];
-                if idx.iter().any(|&i| i >= n_vertices) {
-                    return Err(ctx.err(&file_field, format!("{shown}: a face index is out of range")));
-                }
-                let normals = has_normals.then(|| idx.map(normal));
-                match self.triangle(xf, idx.map(vertex), normals, attrs) {
+            for tri in &mesh.triangles {
+                let ns = normals.as_ref().map(|n| tri.map(|i| n[i]));
+                match self.triangle(xf, tri.map(|i| mesh.positions[i]), ns, attrs) {
                     Ok(()) => added += 1,
                     Err(TriangleError::Degenerate) => skipped += 1,
                     Err(TriangleError::OutOfRange(msg)) => {
@@ -354,6 +359,70 @@ impl Builder<'_> {
         }
         self.stats.degenerate_triangles_skipped += skipped;
         Ok(())
+    }
+
+    /// The objects of an OBJ file (tobj, triangulated, one index per vertex). MTL libraries are
+    /// read for the hash only; the scene's `material` is used, so tobj gets none (which also
+    /// keeps its MTL parser, which can panic on short colour lines, away from our inputs).
+    fn obj_meshes(&mut self, file_field: &str, path: &Path, bytes: &[u8]) -> Result<Vec<TriMesh>> {
+        let ctx = self.ctx;
+        let shown = path.display();
+        let obj_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mtl = std::cell::RefCell::new(Vec::<(PathBuf, Vec<u8>)>::new());
+        let options = tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ignore_points: true,
+            ignore_lines: true,
+        };
+        let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            tobj::load_obj_buf(&mut &bytes[..], &options, |p| {
+                let p = obj_dir.join(p);
+                if let Ok(b) = read_regular_file(&p) {
+                    mtl.borrow_mut().push((p, b));
+                }
+                Err(tobj::LoadError::GenericFailure)
+            })
+        }));
+        let models = match parsed {
+            Ok(Ok((models, _materials))) => models,
+            Ok(Err(e)) => return Err(ctx.err(file_field, format!("{shown}: {e}"))),
+            Err(_) => {
+                return Err(ctx.err(file_field, format!("{shown}: the OBJ parser failed")));
+            }
+        };
+        for (p, b) in mtl.into_inner() {
+            self.stats.files_read.push(p);
+            self.hashed.push(b);
+        }
+        let vecs = |v: &[f32]| -> Vec<DVec3> {
+            v.chunks_exact(3)
+                .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+                .collect()
+        };
+        let mut meshes = Vec::with_capacity(models.len());
+        for model in models {
+            let mesh = &model.mesh;
+            let positions = vecs(&mesh.positions);
+            let mut triangles = Vec::with_capacity(mesh.indices.len() / 3);
+            for tri in mesh.indices.chunks(3) {
+                let &[i, j, k] = tri else {
+                    return Err(ctx.err(file_field, format!("{shown}: a face is not a triangle")));
+                };
+                let idx = [i as usize, j as usize, k as usize];
+                if idx.iter().any(|&i| i >= positions.len()) {
+                    return Err(ctx.err(file_field, format!("{shown}: a face index is out of range")));
+                }
+                triangles.push(idx);
+            }
+            meshes.push(TriMesh {
+                name: model.name.clone(),
+                normals: (!mesh.normals.is_empty()).then(|| vecs(&mesh.normals)),
+                positions,
+                triangles,
+            });
+        }
+        Ok(meshes)
     }
 }
 

@@ -22,6 +22,8 @@
 
 mod locate;
 mod mesh;
+mod mesh_formats;
+pub use mesh_formats::mesh_file_has_normals;
 mod rough;
 pub(crate) use rough::PLASTIC_DEFAULT_IOR;
 #[cfg(test)]

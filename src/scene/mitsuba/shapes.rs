@@ -109,14 +109,27 @@ impl<'a, 'i> Reader<'a, 'i> {
                 transform,
                 emission,
             }),
-            "obj" => {
+            "obj" | "ply" | "serialized" => {
                 let Some((p, file)) = self.string(&mut o, "filename")? else {
                     return Err(self.err(n, "expected <string name=\"filename\">"));
                 };
                 let face_normals = self.boolean(&mut o, "face_normals")?.unwrap_or(false);
+                let shape_index =
+                    match (kind.as_str(), self.integer(&mut o, "shape_index")?) {
+                        (_, None) => None,
+                        ("serialized", Some(i)) => Some(u32::try_from(i).map_err(|_| {
+                            self.err(n, format!("shape_index: expected a non-negative integer, got {i}"))
+                        })?),
+                        (_, Some(_)) => return Err(self.err(n, "shape_index is a property of serialized shapes")),
+                    };
                 let path = self.resolve(&file);
-                let text = crate::util::read_input(&path, "mesh", crate::util::MAX_MESH_INPUT)
-                    .map_err(|e| self.err(p, format!("filename: cannot read {}: {e}", path.display())))?;
+                if !path.is_file() {
+                    return Err(self.err(p, format!("filename: cannot read {}: no such file", path.display())));
+                }
+                let expected = format!(".{kind}");
+                if !file.to_ascii_lowercase().ends_with(&expected) {
+                    return Err(self.err(p, format!("filename: a {kind} shape needs a file ending in {expected}")));
+                }
                 // The loader reads meshes relative to the scene file's directory: a mesh found
                 // elsewhere (a `<path>` directory, an included file's directory) is named by its
                 // absolute path.
@@ -128,26 +141,23 @@ impl<'a, 'i> Reader<'a, 'i> {
                         .display()
                         .to_string()
                 };
-                let has_normals = text
-                    .split(|&b| b == b'\n')
-                    .any(|l| l.trim_ascii_start().starts_with(b"vn "));
-                if !face_normals && !has_normals {
-                    self.warn(
-                        n,
-                        "the OBJ has no normals: Mitsuba smooths vertex normals, photon-bench shades flat \
-                         (face_normals=\"true\" makes both flat)",
-                    );
-                }
+                // A file without normals is shaded smooth, as Mitsuba recomputes them, unless
+                // the scene asks for face normals.
                 ShapeDesc::Mesh(desc::Mesh {
                     material,
                     file,
                     face_normals,
+                    smooth_normals: !face_normals,
+                    shape_index,
                     transform,
                     emission,
                 })
             }
             other => {
-                return Err(self.err(n, format!("unsupported shape {other:?} (obj, rectangle, cube, sphere)")));
+                return Err(self.err(
+                    n,
+                    format!("unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere)"),
+                ));
             }
         };
         self.finish(&o)?;
