@@ -377,8 +377,7 @@ fn run_command(command: Command) -> Result<Status> {
                 light_selection: parse_enum::<LightSelection>("--light-selection", &light_selection)?,
                 sphere_light_sampling: parse_enum::<SphereSampling>("--sphere-light-sampling", &sphere_light_sampling)?,
             };
-            let source = scene_source(scene, &scene_params)?;
-            let scene = source.load()?;
+            let scene = scene_source(scene, &scene_params)?.load()?;
             let existing = reference::exr_path(&out, &scene.name);
             if existing.exists() && !force {
                 return Err(Error::new(format!(
@@ -387,9 +386,7 @@ fn run_command(command: Command) -> Result<Status> {
                 )));
             }
             let bar = indicatif::ProgressBar::new(spp as u64);
-            let exr = reference::make(&scene, &source.params, &out, spp, seed, params, |done| {
-                bar.set_position(done as u64)
-            })?;
+            let exr = reference::make(&scene, &out, spp, seed, params, |done| bar.set_position(done as u64))?;
             bar.finish_and_clear();
             println!("{}", exr.display());
             Ok(Status::Success)

@@ -139,10 +139,11 @@ pub fn load(dir: &Path, scene: &Scene) -> Result<Reference> {
     let out = format!("--out {}", dir.display());
     if !exr.exists() && std::fs::symlink_metadata(&exr).is_err() {
         return Err(Error::new(format!(
-            "{}: reference missing for scene `{}`; make it with `bench reference {} --spp <N> {out}`",
+            "{}: reference missing for scene `{}`; make it with `bench reference {}{} --spp <N> {out}`",
             exr.display(),
             scene.name,
-            scene.source.display()
+            scene.source.display(),
+            scene_param_args(&scene.params)
         )));
     }
     let side = sidecar_path(&exr);
@@ -178,12 +179,16 @@ pub fn load(dir: &Path, scene: &Scene) -> Result<Reference> {
     Ok(Reference { image, info, hash })
 }
 
+/// ` --param k=v` for each Mitsuba scene parameter: what `bench reference` needs to load the
+/// same scene.
+fn scene_param_args(params: &[(String, String)]) -> String {
+    params.iter().map(|(k, v)| format!(" --param {k}={v}")).collect()
+}
+
 /// Renders a reference with `path` and writes the EXR, a PNG preview and the sidecar into
-/// `dir`. `scene_params` are the Mitsuba scene parameters it was loaded with (for the sidecar's
-/// command). `on_pass` is called after each pass with the samples done so far.
+/// `dir`. `on_pass` is called after each pass with the samples done so far.
 pub fn make(
     scene: &Scene,
-    scene_params: &[(String, String)],
     dir: &Path,
     spp: u32,
     seed: u64,
@@ -238,10 +243,7 @@ pub fn make(
         command: format!(
             "bench reference {}{} --spp {spp} --seed {seed}{param_args}",
             scene.source.display(),
-            scene_params
-                .iter()
-                .map(|(k, v)| format!(" --param {k}={v}"))
-                .collect::<String>()
+            scene_param_args(&scene.params)
         ),
     };
     write_exr(&image, &exr)?;
@@ -270,7 +272,6 @@ mod tests {
                     let dir = tempfile::tempdir().unwrap();
                     make(
                         &scene,
-                        &[],
                         dir.path(),
                         spp,
                         1000 + 2 * pair + k,

@@ -61,6 +61,9 @@ pub struct Scene {
     pub name: String,
     /// The file it was loaded from.
     pub source: PathBuf,
+    /// The Mitsuba scene parameters it was loaded with (`--param`, an experiment's `params`),
+    /// sorted by name; empty for a TOML scene.
+    pub params: Vec<(String, String)>,
     /// Hash of the scene file and every file it references (hex), recorded with every result.
     pub content_hash: String,
     pub camera: Camera,
@@ -151,6 +154,7 @@ impl Scene {
         };
         let accel = Accel::build(&primitives);
         Ok(Scene {
+            params: Vec::new(),
             name,
             source,
             content_hash,

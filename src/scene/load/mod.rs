@@ -120,9 +120,18 @@ impl SceneSource {
         if self.params.is_empty() {
             stem
         } else {
-            let params: Vec<String> = self.params.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            // In name order, so that the same parameters give the same name however they were
+            // listed (the command line keeps their order, an experiment's table sorts them).
+            let params: Vec<String> = self.sorted_params().iter().map(|(k, v)| format!("{k}={v}")).collect();
             crate::util::file_stem(&format!("{stem}[{}]", params.join(",")))
         }
+    }
+
+    /// The parameters sorted by name.
+    pub fn sorted_params(&self) -> Vec<(String, String)> {
+        let mut params = self.params.clone();
+        params.sort();
+        params
     }
 
     pub fn load(&self) -> Result<Scene> {
@@ -205,7 +214,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         b.hashed.push(bytes);
         b.stats.files_read.push(file);
     }
-    for (name, value) in &source.params {
+    for (name, value) in &source.sorted_params() {
         b.hashed.push(format!("param {name}={value}").into_bytes());
     }
     let camera = camera(&ctx, &desc.camera)?;
@@ -261,7 +270,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         .filter(|p| matches!(p, Primitive::Triangle(_)))
         .count();
     stats.spheres = primitives.len() - stats.triangles;
-    let scene = Scene::assemble(
+    let mut scene = Scene::assemble(
         name,
         path.to_path_buf(),
         hash,
@@ -271,6 +280,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         attrs,
         user_paths,
     )?;
+    scene.params = source.sorted_params();
     Ok((scene, stats))
 }
 
