@@ -38,10 +38,9 @@ import sys
 import tempfile
 import time
 
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from crosscheck_mitsuba import judge, read_exr  # noqa: E402
+from crosscheck_mitsuba import judge, render_mitsuba, render_ours  # noqa: E402
 
 
 def resize_films(text, longest):
@@ -174,29 +173,12 @@ def main():
                 rows.append(row)
                 print(f"{name}: Mitsuba refused: {row['reason']}", flush=True)
                 continue
-            integrator = mi.load_dict({"type": "path", "max_depth": args.max_depth + 1, "rr_depth": args.max_depth + 2})
             t0 = time.perf_counter()
-            theirs = np.stack(
-                [
-                    np.array(mi.render(scene, integrator=integrator, spp=args.spp, seed=1000 + k), dtype=np.float64)[..., :3]
-                    for k in range(args.seeds)
-                ]
-            )
+            theirs = render_mitsuba(scene, args.spp, args.seeds, args.max_depth)
             t_mitsuba = time.perf_counter() - t0
             t0 = time.perf_counter()
-            ours = []
-            stem = os.path.splitext(name)[0]
-            for k in range(args.seeds):
-                subprocess.run(
-                    [bench, "reference", path, "--spp", str(args.spp), "--seed", str(k), "--out", out, "--force",
-                     "--max-depth", str(args.max_depth), "--rr-depth", str(args.max_depth),
-                     "--light-selection", "uniform", "--sphere-light-sampling", "cone"],
-                    check=True,
-                    stdout=subprocess.DEVNULL,
-                    stderr=subprocess.DEVNULL,
-                )
-                ours.append(read_exr(os.path.join(out, f"{stem}.exr")))
-            ours = np.stack(ours)
+            ours = render_ours(bench, path, args.spp, args.seeds, args.max_depth, tmp,
+                               ["--light-selection", "uniform", "--sphere-light-sampling", "cone"])
             t_ours = time.perf_counter() - t0
             h, w = ours.shape[1:3]
             print(f"{name}: {w}x{h}, {args.seeds} seeds x {args.spp} spp; Mitsuba {t_mitsuba:.1f} s, ours {t_ours:.1f} s")

@@ -159,6 +159,37 @@ def read_exr(path):
     return np.array(mi.Bitmap(path), dtype=np.float64)[..., :3]
 
 
+def render_mitsuba(scene, spp, seeds, max_depth):
+    """K images (seeds 1000 + k) of Mitsuba's `path` with our max_depth + 1 and no roulette."""
+    import mitsuba as mi
+
+    integrator = mi.load_dict({"type": "path", "max_depth": max_depth + 1, "rr_depth": max_depth + 2})
+    return np.stack(
+        [
+            np.array(mi.render(scene, integrator=integrator, spp=spp, seed=1000 + k), dtype=np.float64)[..., :3]
+            for k in range(seeds)
+        ]
+    )
+
+
+def render_ours(bench, scene_file, spp, seeds, max_depth, tmp, extra=(), threads=()):
+    """K images (seeds 0 … K - 1) of our `path` via `bench reference`, no roulette; `extra` are
+    more `bench reference` arguments (light selection), `threads` the global `--threads N`."""
+    stem = os.path.splitext(os.path.basename(scene_file))[0]
+    images = []
+    for k in range(seeds):
+        out = os.path.join(tmp, f"ours{k}")
+        subprocess.run(
+            [bench, *threads, "reference", scene_file, "--spp", str(spp), "--seed", str(k), "--out", out, "--force",
+             "--max-depth", str(max_depth), "--rr-depth", str(max_depth), *extra],
+            check=True,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        images.append(read_exr(os.path.join(out, f"{stem}.exr")))
+    return np.stack(images)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scene", help="a scene file (TOML or Mitsuba XML)")
@@ -192,30 +223,11 @@ def main():
             text = re.sub(r'name="height" value="\d+"', f'name="height" value="{args.size[1]}"', text, count=1)
             with open(xml, "w") as f:
                 f.write(text)
-        scene = mi.load_file(xml)
-        integrator = mi.load_dict(
-            {"type": "path", "max_depth": args.max_depth + 1, "rr_depth": args.max_depth + 2}
-        )
         t0 = time.perf_counter()
-        theirs = np.stack(
-            [
-                np.array(mi.render(scene, integrator=integrator, spp=args.spp, seed=1000 + k), dtype=np.float64)[..., :3]
-                for k in range(args.seeds)
-            ]
-        )
+        theirs = render_mitsuba(mi.load_file(xml), args.spp, args.seeds, args.max_depth)
         t_mitsuba = time.perf_counter() - t0
         t0 = time.perf_counter()
-        ours = []
-        for k in range(args.seeds):
-            out = os.path.join(tmp, f"ours{k}")
-            subprocess.run(
-                [args.bench, *threads, "reference", xml, "--spp", str(args.spp), "--seed", str(k), "--out", out,
-                 "--max-depth", str(args.max_depth), "--rr-depth", str(args.max_depth)],
-                check=True,
-                stdout=subprocess.DEVNULL,
-            )
-            ours.append(read_exr(os.path.join(out, "scene.exr")))
-        ours = np.stack(ours)
+        ours = render_ours(args.bench, xml, args.spp, args.seeds, args.max_depth, tmp, threads=threads)
         t_ours = time.perf_counter() - t0
     h, w = ours.shape[1:3]
     print(

@@ -147,14 +147,7 @@ impl RoughConductor {
         }
         let wo_up = wo.with_z(wo.z.abs());
         let wi_up = sample_microfacet_reflection(&self.distribution, wo_up, u)?;
-        let wi = if wo.z < 0.0 { wi_up.with_z(-wi_up.z) } else { wi_up };
-        let pdf_w = self.pdf(wo, wi);
-        (pdf_w > 0.0).then(|| BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf_w,
-            delta: false,
-        })
+        BsdfSample::on_side_of(wo, wi_up, |wi| self.pdf(wo, wi), |wi| self.eval(wo, wi))
     }
 }
 

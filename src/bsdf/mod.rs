@@ -123,6 +123,26 @@ pub enum Bsdf {
 }
 
 impl BsdfSample {
+    /// The sample of a two-sided reflection model that drew `wi_up` on the upper side: mirrored
+    /// to the side of `wo`, with the model's own density and value there, so that `sample`,
+    /// `pdf` and `eval` agree by construction; `None` where the density vanishes.
+    #[inline]
+    pub(crate) fn on_side_of(
+        wo: Vec3,
+        wi_up: Vec3,
+        pdf: impl Fn(Vec3) -> f32,
+        eval: impl Fn(Vec3) -> Vec3,
+    ) -> Option<Self> {
+        let wi = if wo.z < 0.0 { wi_up.with_z(-wi_up.z) } else { wi_up };
+        let pdf_w = pdf(wi);
+        (pdf_w > 0.0).then(|| BsdfSample {
+            wi,
+            f: eval(wi),
+            pdf_w,
+            delta: false,
+        })
+    }
+
     /// The sample a guided mixture (BSDF and a guiding density) drew: direction `wi`, the
     /// BSDF's value there (radiance transport) and the mixture's density `pdf_w`; `None` where
     /// that density is zero.

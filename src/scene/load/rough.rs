@@ -1,7 +1,6 @@
 //! The metals and microfacet materials of Mitsuba 3 (`conductor`, `rough_conductor`,
 //! `rough_dielectric`, `rough_plastic`): their fields checked one by one and the models built.
 
-use super::validate::{num, rgb, triple};
 use super::*;
 use crate::bsdf::{
     Bsdf, Conductor, ConductorIor, Microfacet, MicrofacetType, RoughConductor, RoughDielectric, RoughPlastic,
