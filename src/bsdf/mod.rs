@@ -217,6 +217,19 @@ impl Bsdf {
         }
     }
 
+    /// The model that scatters light leaving along local `wo`: a one-sided model's inner model
+    /// on its front side, nothing (black) behind it, any other model itself. Strategies that
+    /// treat a model specially (a Lambertian surface's irradiance, a guided diffuse vertex) look
+    /// through the wrapper with this, so that Mitsuba's one-sided materials get the same method.
+    #[inline]
+    pub fn seen_from(&self, wo: Vec3) -> Option<&Bsdf> {
+        match self {
+            Bsdf::OneSided(b) if wo.z > 0.0 => Some(b),
+            Bsdf::OneSided(_) => None,
+            b => Some(b),
+        }
+    }
+
     /// Path-grammar class: any diffuse component makes a surface [`SurfaceKind::Diffuse`].
     pub fn kind(&self) -> SurfaceKind {
         match self {

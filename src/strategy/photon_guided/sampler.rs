@@ -159,12 +159,12 @@ impl DirectionSampler for GridSampler<'_> {
 
     fn vertex(&self, _: &Scene, hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3) -> GuidedVertex {
         let flip = wo.z < 0.0;
-        match bsdf {
-            Bsdf::Lambertian(_) => self.precomputed_at(hit, flip).unwrap_or_else(|| GuidedVertex::Built {
+        match bsdf.seen_from(wo) {
+            Some(Bsdf::Lambertian(_)) => self.precomputed_at(hit, flip).unwrap_or_else(|| GuidedVertex::Built {
                 grid: self.grid_at(hit, flip),
                 flip,
             }),
-            Bsdf::Phong(_) | Bsdf::Ward(_) if self.params.glossy => GuidedVertex::Built {
+            Some(Bsdf::Phong(_) | Bsdf::Ward(_)) if self.params.glossy => GuidedVertex::Built {
                 grid: self.product_grid_at(hit, flip, |wi| luminance(bsdf.eval(wo, wi, TransportMode::Radiance))),
                 flip,
             },

@@ -101,7 +101,10 @@ impl Renderer<'_> {
         } else {
             self.params.secondary_gather_rays
         } as usize;
-        if primary && let (Some(cache), Bsdf::Lambertian(lam)) = (&self.maps.cache, bsdf) {
+        if primary
+            && let (Some(cache), Some(Bsdf::Lambertian(lam))) =
+                (&self.maps.cache, bsdf.seen_from(hit.frame.to_local(wo_world)))
+        {
             // Ward's irradiance cache: ρ/π × the interpolated indirect irradiance.
             match cache.interpolate(hit.p, side_normal(hit, wo_world)) {
                 Some(e) => {
@@ -199,9 +202,11 @@ impl Renderer<'_> {
     /// otherwise the global map's radiance estimate with the BSDF.
     pub(super) fn lookup(&self, hit: &SurfaceHit, bsdf: &Bsdf, wo_world: Vec3, c: &mut PhotonMapCounters) -> Vec3 {
         let maps = self.maps;
-        if let (Some(irr), Some(pre), Bsdf::Lambertian(lam)) =
-            (&maps.irradiance, &self.params.precomputed_irradiance, bsdf)
-        {
+        if let (Some(irr), Some(pre), Some(Bsdf::Lambertian(lam))) = (
+            &maps.irradiance,
+            &self.params.precomputed_irradiance,
+            bsdf.seen_from(hit.frame.to_local(wo_world)),
+        ) {
             c.irradiance_lookups += 1;
             let n = side_normal(hit, wo_world);
             return irr.radiance_at(hit.p, n, lam.reflectance, pre.normal_dot);

@@ -74,7 +74,9 @@ impl Renderer<'_> {
                 ray = delta_bounce(&hit, bsdf, hit.frame.to_local(-ray.d), rng)?.0;
                 continue;
             }
-            let Bsdf::Lambertian(_) = bsdf else { return None };
+            let Some(Bsdf::Lambertian(_)) = bsdf.seen_from(hit.frame.to_local(-ray.d)) else {
+                return None;
+            };
             let n = side_normal(&hit, -ray.d);
             if cache.interpolate(hit.p, n).is_some() {
                 return None;
