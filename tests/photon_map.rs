@@ -308,3 +308,46 @@ fn fig1_images_follow_the_maps_they_are_drawn_from() {
     );
     assert_ne!(c, d);
 }
+
+/// Gather rays that land on a glossy surface (frosted glass, rough metal: no photons are stored
+/// there) are traced on through it, so the frosted glass sphere of `cornell-microfacet` is not
+/// black: the mean of the image block around it matches `path`'s within the photon map's bias.
+#[test]
+fn gather_rays_trace_through_glossy_surfaces() {
+    let text = std::fs::read_to_string("scenes/cornell-microfacet.toml")
+        .unwrap()
+        .replace("resolution = [128, 128]", "resolution = [32, 32]");
+    let scene = load_scene_bytes(Path::new("scenes/cornell-microfacet.toml"), text.as_bytes())
+        .unwrap()
+        .0;
+    // The frosted sphere (centre (0.17, 0.1, 0.17), r = 0.1) covers the lower right of the image.
+    let block = |img: &Image| {
+        let mut sum = 0.0;
+        for y in 20..28 {
+            for x in 18..26 {
+                sum += luminance(img.pixels[(y * img.width + x) as usize]) as f64;
+            }
+        }
+        sum / 64.0
+    };
+    let reference: f64 = (0..3)
+        .map(|seed| block(&render(&scene, "path", "", seed, 64)))
+        .sum::<f64>()
+        / 3.0;
+    let gathered: f64 = (0..3)
+        .map(|seed| {
+            block(&render(
+                &scene,
+                "photon_map",
+                "photons = 100000\ngather_rays = 16",
+                seed,
+                4,
+            ))
+        })
+        .sum::<f64>()
+        / 3.0;
+    assert!(
+        (gathered / reference - 1.0).abs() < 0.15,
+        "frosted glass: photon_map {gathered:.4} vs path {reference:.4}"
+    );
+}

@@ -4,7 +4,7 @@
 //! gathers for short rays.
 
 use super::*;
-use crate::bsdf::{Bsdf, TransportMode};
+use crate::bsdf::{Bsdf, SurfaceKind, TransportMode};
 use crate::geometry::{Ray, spawn_ray};
 use crate::photon::{EstimateParams, PhotonMap};
 use crate::sampling::{Rng, latin_hypercube};
@@ -162,34 +162,53 @@ impl Renderer<'_> {
         let mut beta = Vec3::ONE;
         let mut distance = 0.0f32;
         let mut depth = 0u32;
+        let mut l = Vec3::ZERO;
+        // Emission is left to next-event estimation at the gather's origin and, behind delta
+        // surfaces only, to the caustic map; once the chain has crossed a glossy vertex neither
+        // covers it, so it is counted here.
+        let mut through_glossy = false;
         loop {
             let Some(hit) = scene.intersect(&ray) else {
-                return Vec3::ZERO;
+                return l;
             };
             if depth == 0 {
                 *first = hit.t;
             }
             distance += hit.t;
+            if through_glossy && let Some(light) = scene.light_of(hit.prim) {
+                l += beta * light.le(hit.ng, -ray.d);
+            }
             let bsdf = scene.bsdf(&hit);
             let wo_world = -ray.d;
-            if !bsdf.is_delta() {
+            let kind = bsdf.kind();
+            if kind == SurfaceKind::Diffuse {
                 let maps = self.maps;
                 if primary && distance < maps.short_gather && self.params.secondary_gather_rays > 0 {
                     c.secondary_gathers += 1;
-                    return beta * self.shade(&hit, bsdf, wo_world, false, rng, c);
+                    return l + beta * self.shade(&hit, bsdf, wo_world, false, rng, c);
                 }
-                return beta * self.lookup(&hit, bsdf, wo_world, c);
+                return l + beta * self.lookup(&hit, bsdf, wo_world, c);
             }
             if depth >= self.params.max_depth {
-                return Vec3::ZERO;
+                return l;
             }
             let wo = hit.frame.to_local(wo_world);
-            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else {
-                return Vec3::ZERO;
+            // Photons are stored on diffuse surfaces only: a gather ray that lands on a glossy
+            // one (a rough metal, frosted glass) is traced on by sampling its BSDF, as Jensen's
+            // method traces glossy reflections with Monte Carlo ray tracing, instead of reading
+            // an empty map there.
+            let step = if kind == SurfaceKind::Specular {
+                delta_bounce(&hit, bsdf, wo, rng)
+            } else {
+                through_glossy = true;
+                glossy_bounce(&hit, bsdf, wo, rng)
+            };
+            let Some((next, weight)) = step else {
+                return l;
             };
             beta *= weight;
             if beta == Vec3::ZERO {
-                return Vec3::ZERO;
+                return l;
             }
             ray = next;
             depth += 1;
@@ -265,6 +284,19 @@ pub(super) fn delta_bounce(hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3, rng: &mut Rn
     }
     let wi = hit.frame.to_world(s.wi);
     if wi.dot(hit.ng) * s.wi.z <= 0.0 {
+        return None;
+    }
+    Some((spawn_ray(hit.p, hit.ng, wi), s.f * (s.wi.z.abs() / s.pdf_w)))
+}
+
+/// The next ray of a chain through a glossy (non-delta, non-diffuse) vertex by BSDF sampling and
+/// its weight f_s |cos θi| / p; `None` when the sample fails or leaves on the wrong side of the
+/// geometric surface.
+fn glossy_bounce(hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3, rng: &mut Rng) -> Option<(Ray, Vec3)> {
+    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+    let s = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)?;
+    let wi = hit.frame.to_world(s.wi);
+    if wi.dot(hit.ng) * s.wi.z <= 0.0 || s.pdf_w <= 0.0 {
         return None;
     }
     Some((spawn_ray(hit.p, hit.ng, wi), s.f * (s.wi.z.abs() / s.pdf_w)))
