@@ -81,18 +81,6 @@ pub struct Conductor {
 }
 
 impl Conductor {
-    /// Zero: the lobe is a delta distribution.
-    #[inline]
-    pub fn eval(&self, _wo: Vec3, _wi: Vec3) -> Vec3 {
-        Vec3::ZERO
-    }
-
-    /// Zero: the lobe is a delta distribution.
-    #[inline]
-    pub fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
-        0.0
-    }
-
     /// The mirror direction with weight specular_reflectance · F(cos θo).
     pub fn sample(&self, wo: Vec3) -> Option<BsdfSample> {
         if wo.z == 0.0 {

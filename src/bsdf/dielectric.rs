@@ -30,18 +30,6 @@ impl Dielectric {
         Self { ior, tint: Vec3::ONE }
     }
 
-    /// Zero: both lobes are delta distributions.
-    #[inline]
-    pub fn eval(&self, _wo: Vec3, _wi: Vec3) -> Vec3 {
-        Vec3::ZERO
-    }
-
-    /// Zero: both lobes are delta distributions.
-    #[inline]
-    pub fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
-        0.0
-    }
-
     /// Relative index η = η_t / η_o across the interface for a path leaving along `wo`.
     #[inline]
     pub fn eta_toward(&self, wo: Vec3) -> f32 {

@@ -16,18 +16,6 @@ pub struct Mirror {
 }
 
 impl Mirror {
-    /// Zero: a delta lobe has no value at any given pair of directions.
-    #[inline]
-    pub fn eval(&self, _wo: Vec3, _wi: Vec3) -> Vec3 {
-        Vec3::ZERO
-    }
-
-    /// Zero: a delta lobe has no solid-angle density.
-    #[inline]
-    pub fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
-        0.0
-    }
-
     /// The mirror direction (−wo.x, −wo.y, wo.z), chosen with probability 1.
     #[inline]
     pub fn sample(&self, wo: Vec3) -> Option<BsdfSample> {

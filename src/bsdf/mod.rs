@@ -161,14 +161,12 @@ impl Bsdf {
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         match self {
+            // Delta lobes have no density to evaluate.
+            Bsdf::Mirror(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Conductor(_) => Vec3::ZERO,
             Bsdf::Lambertian(b) => b.eval(wo, wi),
-            Bsdf::Mirror(b) => b.eval(wo, wi),
-            Bsdf::Dielectric(b) => b.eval(wo, wi),
             Bsdf::Phong(b) => b.eval(wo, wi),
             Bsdf::Ward(b) => b.eval(wo, wi),
             Bsdf::DiffuseTransmission(b) => b.eval(wo, wi),
-            Bsdf::ThinDielectric(b) => b.eval(wo, wi),
-            Bsdf::Conductor(b) => b.eval(wo, wi),
             Bsdf::RoughConductor(b) => b.eval(wo, wi),
             Bsdf::RoughDielectric(b) => b.eval(wo, wi, mode),
             Bsdf::RoughPlastic(b) => b.eval(wo, wi),
@@ -181,14 +179,11 @@ impl Bsdf {
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
+            Bsdf::Mirror(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Conductor(_) => 0.0,
             Bsdf::Lambertian(b) => b.pdf(wo, wi),
-            Bsdf::Mirror(b) => b.pdf(wo, wi),
-            Bsdf::Dielectric(b) => b.pdf(wo, wi),
             Bsdf::Phong(b) => b.pdf(wo, wi),
             Bsdf::Ward(b) => b.pdf(wo, wi),
             Bsdf::DiffuseTransmission(b) => b.pdf(wo, wi),
-            Bsdf::ThinDielectric(b) => b.pdf(wo, wi),
-            Bsdf::Conductor(b) => b.pdf(wo, wi),
             Bsdf::RoughConductor(b) => b.pdf(wo, wi),
             Bsdf::RoughDielectric(b) => b.pdf(wo, wi),
             Bsdf::RoughPlastic(b) => b.pdf(wo, wi),

@@ -30,18 +30,6 @@ impl ThinDielectric {
         if r < 1.0 { 2.0 * r / (1.0 + r) } else { 1.0 }
     }
 
-    /// Zero: both lobes are delta distributions.
-    #[inline]
-    pub fn eval(&self, _wo: Vec3, _wi: Vec3) -> Vec3 {
-        Vec3::ZERO
-    }
-
-    /// Zero: both lobes are delta distributions.
-    #[inline]
-    pub fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
-        0.0
-    }
-
     /// Reflection with probability R', else straight transmission; f / pdf is the lobe's
     /// filter divided by |cos θi| (the delta convention of [`super::Bsdf::sample`]).
     pub fn sample(&self, wo: Vec3, u_lobe: f32) -> Option<BsdfSample> {
@@ -123,7 +111,11 @@ mod tests {
             let se = (r as f64 * (1.0 - r as f64) / n as f64).sqrt();
             assert!((f - r as f64).abs() < 5.0 * se, "wo {wo}: {f} vs {r}");
         }
-        assert_eq!(p.eval(Vec3::Z, -Vec3::Z), Vec3::ZERO);
-        assert_eq!(p.pdf(Vec3::Z, -Vec3::Z), 0.0);
+        let bsdf = super::super::Bsdf::ThinDielectric(p);
+        assert_eq!(
+            bsdf.eval(Vec3::Z, -Vec3::Z, super::super::TransportMode::Radiance),
+            Vec3::ZERO
+        );
+        assert_eq!(bsdf.pdf(Vec3::Z, -Vec3::Z), 0.0);
     }
 }
