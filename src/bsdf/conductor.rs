@@ -18,7 +18,8 @@
 //! equivalent; the importer warns about one-sided materials).
 
 use super::microfacet::Microfacet;
-use super::{BsdfSample, reflect_z, to_upper};
+use super::named_conductors::NAMED_CONDUCTORS;
+use super::{BsdfSample, to_upper};
 use glam::{Vec2, Vec3};
 
 /// Unpolarised Fresnel reflectance of a conductor with relative complex index η + ik for
@@ -67,11 +68,33 @@ impl ConductorIor {
         }
     }
 
+    /// One of Mitsuba's measured conductors ("Au", "Cu", …) with no tint; `None` for an unknown
+    /// name ([`named_conductor_list`] lists them).
+    pub fn named(name: &str) -> Option<Self> {
+        NAMED_CONDUCTORS
+            .iter()
+            .find(|(n, _, _)| *n == name)
+            .map(|&(_, eta, k)| Self {
+                eta: Vec3::from(eta),
+                k: Vec3::from(k),
+                specular_reflectance: Vec3::ONE,
+            })
+    }
+
     /// specular_reflectance · F(cos θ).
     #[inline]
     pub fn reflectance(&self, cos_theta: f32) -> Vec3 {
         self.specular_reflectance * fresnel_conductor(cos_theta, self.eta, self.k)
     }
+}
+
+/// The names of Mitsuba's measured conductors, comma-separated, for error messages.
+pub fn named_conductor_list() -> String {
+    NAMED_CONDUCTORS
+        .iter()
+        .map(|(n, _, _)| *n)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// A smooth conductor: a delta reflection lobe weighted by the conductor's Fresnel term.
@@ -83,16 +106,7 @@ pub struct Conductor {
 impl Conductor {
     /// The mirror direction with weight specular_reflectance · F(cos θo).
     pub fn sample(&self, wo: Vec3) -> Option<BsdfSample> {
-        if wo.z == 0.0 {
-            return None;
-        }
-        let wi = reflect_z(wo);
-        Some(BsdfSample {
-            wi,
-            f: self.ior.reflectance(wo.z.abs()) / wi.z.abs(),
-            pdf_w: 1.0,
-            delta: true,
-        })
+        BsdfSample::mirrored(wo, self.ior.reflectance(wo.z.abs()))
     }
 }
 
@@ -110,13 +124,9 @@ impl RoughConductor {
             return Vec3::ZERO;
         }
         let (wo, wi) = to_upper(wo, wi);
-        let h = (wo + wi).normalize();
-        let d = self.distribution.d(h);
-        if d == 0.0 {
-            return Vec3::ZERO;
-        }
-        let g = self.distribution.g(wo, wi, h);
-        self.ior.reflectance(wo.dot(h)) * (d * g / (4.0 * wo.z * wi.z))
+        self.distribution
+            .reflection(wo, wi)
+            .map_or(Vec3::ZERO, |(h, dg)| self.ior.reflectance(wo.dot(h)) * dg)
     }
 
     /// p(m)/(4 |wi·m|) with m = h.
@@ -126,7 +136,7 @@ impl RoughConductor {
             return 0.0;
         }
         let (wo, wi) = to_upper(wo, wi);
-        microfacet_reflection_pdf(&self.distribution, wo, wi)
+        self.distribution.reflection_pdf(wo, wi)
     }
 
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
@@ -134,29 +144,7 @@ impl RoughConductor {
             return None;
         }
         let wo_up = wo.with_z(wo.z.abs());
-        let wi_up = sample_microfacet_reflection(&self.distribution, wo_up, u)?;
+        let wi_up = self.distribution.sample_reflection(wo_up, u)?;
         BsdfSample::on_side_of(wo, wi_up, |wi| self.pdf(wo, wi), |wi| self.eval(wo, wi))
     }
-}
-
-/// Density of reflecting `wo` about a sampled microfacet normal into `wi`, both above the
-/// surface: p(h)/(4 wi·h) [Walter et al. 2007, eq. 14]; zero where either direction sees the
-/// back of the microfacet.
-#[inline]
-pub(super) fn microfacet_reflection_pdf(distribution: &Microfacet, wo: Vec3, wi: Vec3) -> f32 {
-    let h = (wo + wi).normalize_or_zero();
-    let wi_h = wi.dot(h);
-    if !(h.z > 0.0 && wo.dot(h) > 0.0 && wi_h > 0.0) {
-        return 0.0;
-    }
-    distribution.pdf(wo, h) / (4.0 * wi_h)
-}
-
-/// Reflects `wo` (above the surface) about a sampled microfacet normal; `None` below the
-/// surface.
-#[inline]
-pub(super) fn sample_microfacet_reflection(distribution: &Microfacet, wo: Vec3, u: Vec2) -> Option<Vec3> {
-    let (m, _) = distribution.sample(wo, u)?;
-    let wi = 2.0 * wo.dot(m) * m - wo;
-    (wi.z > 0.0 && wi.is_finite()).then(|| wi.normalize())
 }

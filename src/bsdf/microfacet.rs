@@ -163,6 +163,38 @@ impl Microfacet {
         self.smith_g1(wi, m) * self.smith_g1(wo, m)
     }
 
+    /// The Cook–Torrance reflection of the microfacets for `wo`, `wi` above the surface: the
+    /// half vector h and D(h) G(wo, wi, h) / (4 cos θo cos θi), which a Fresnel term multiplies
+    /// [Walter et al. 2007, eq. 20]; `None` where D vanishes.
+    #[inline]
+    pub fn reflection(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32)> {
+        let h = (wo + wi).normalize();
+        let d = self.d(h);
+        (d != 0.0).then(|| (h, d * self.g(wo, wi, h) / (4.0 * wo.z * wi.z)))
+    }
+
+    /// Density of reflecting `wo` about a sampled microfacet normal into `wi`, both above the
+    /// surface: p(h)/(4 wi·h) [Walter et al. 2007, eq. 14]; zero where either direction sees the
+    /// back of the microfacet.
+    #[inline]
+    pub fn reflection_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let h = (wo + wi).normalize_or_zero();
+        let wi_h = wi.dot(h);
+        if !(h.z > 0.0 && wo.dot(h) > 0.0 && wi_h > 0.0) {
+            return 0.0;
+        }
+        self.pdf(wo, h) / (4.0 * wi_h)
+    }
+
+    /// Reflects `wo` (above the surface) about a sampled microfacet normal; `None` below the
+    /// surface.
+    #[inline]
+    pub fn sample_reflection(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        let (m, _) = self.sample(wo, u)?;
+        let wi = 2.0 * wo.dot(m) * m - wo;
+        (wi.z > 0.0 && wi.is_finite()).then(|| wi.normalize())
+    }
+
     /// Density of [`Microfacet::sample`] over microfacet normals (solid angle of m), for `wi`
     /// above the surface.
     #[inline]

@@ -6,7 +6,7 @@
 //!
 //! Parameters: `reflectance` R in [0, 1] per channel.
 
-use super::{BsdfSample, reflect_z};
+use super::BsdfSample;
 use glam::Vec3;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -19,15 +19,6 @@ impl Mirror {
     /// The mirror direction (−wo.x, −wo.y, wo.z), chosen with probability 1.
     #[inline]
     pub fn sample(&self, wo: Vec3) -> Option<BsdfSample> {
-        if wo.z == 0.0 {
-            return None;
-        }
-        let wi = reflect_z(wo);
-        Some(BsdfSample {
-            wi,
-            f: self.reflectance / wi.z.abs(),
-            pdf_w: 1.0,
-            delta: true,
-        })
+        BsdfSample::mirrored(wo, self.reflectance)
     }
 }

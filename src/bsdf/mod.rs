@@ -57,7 +57,7 @@ mod microfacet_tests;
 #[cfg(test)]
 mod tests;
 
-pub use conductor::{Conductor, ConductorIor, RoughConductor, fresnel_conductor};
+pub use conductor::{Conductor, ConductorIor, RoughConductor, fresnel_conductor, named_conductor_list};
 pub use dielectric::{Dielectric, fresnel_dielectric, refract};
 pub use diffuse_transmission::DiffuseTransmission;
 pub use lambertian::Lambertian;
@@ -123,6 +123,22 @@ pub enum Bsdf {
 }
 
 impl BsdfSample {
+    /// The one direction of a delta reflection, the mirror image of `wo`, chosen with
+    /// probability 1 and carrying `weight` = f_s |cos θi| / pdf; `None` at grazing `wo`.
+    #[inline]
+    pub(crate) fn mirrored(wo: Vec3, weight: Vec3) -> Option<Self> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        let wi = reflect_z(wo);
+        Some(BsdfSample {
+            wi,
+            f: weight / wi.z.abs(),
+            pdf_w: 1.0,
+            delta: true,
+        })
+    }
+
     /// The sample of a two-sided reflection model that drew `wi_up` on the upper side: mirrored
     /// to the side of `wo`, with the model's own density and value there, so that `sample`,
     /// `pdf` and `eval` agree by construction; `None` where the density vanishes.

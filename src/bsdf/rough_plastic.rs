@@ -26,7 +26,6 @@
 //! `ior` η = η_interior/η_exterior > 0 and ≠ 1 (Mitsuba's default: polypropylene 1.49 in air),
 //! the microfacet distribution, `nonlinear`.
 
-use super::conductor::{microfacet_reflection_pdf, sample_microfacet_reflection};
 use super::microfacet::Microfacet;
 use super::{BsdfSample, fresnel_dielectric, to_upper};
 use crate::sampling::sample_cosine_hemisphere;
@@ -119,14 +118,9 @@ impl RoughPlastic {
             return Vec3::ZERO;
         }
         let (wo, wi) = to_upper(wo, wi);
-        let h = (wo + wi).normalize();
-        let d = self.distribution.d(h);
-        let specular = if d > 0.0 {
-            let f = fresnel_dielectric(wo.dot(h).max(0.0), self.ior);
-            self.specular_reflectance * (f * d * self.distribution.g(wo, wi, h) / (4.0 * wo.z * wi.z))
-        } else {
-            Vec3::ZERO
-        };
+        let specular = self.distribution.reflection(wo, wi).map_or(Vec3::ZERO, |(h, dg)| {
+            self.specular_reflectance * (fresnel_dielectric(wo.dot(h).max(0.0), self.ior) * dg)
+        });
         let rho = self.diffuse_reflectance;
         let r_i = self.tables.internal_reflectance;
         let bounce = if self.nonlinear {
@@ -145,7 +139,7 @@ impl RoughPlastic {
         }
         let (wo, wi) = to_upper(wo, wi);
         let p_spec = self.specular_probability(wo.z);
-        p_spec * microfacet_reflection_pdf(&self.distribution, wo, wi) + (1.0 - p_spec) * wi.z * FRAC_1_PI
+        p_spec * self.distribution.reflection_pdf(wo, wi) + (1.0 - p_spec) * wi.z * FRAC_1_PI
     }
 
     pub fn sample(&self, wo: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
@@ -154,7 +148,7 @@ impl RoughPlastic {
         }
         let wo_up = wo.with_z(wo.z.abs());
         let wi_up = if u_lobe < self.specular_probability(wo_up.z) {
-            sample_microfacet_reflection(&self.distribution, wo_up, u)?
+            self.distribution.sample_reflection(wo_up, u)?
         } else {
             sample_cosine_hemisphere(u)
         };

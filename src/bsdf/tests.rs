@@ -52,20 +52,9 @@ pub(super) fn microfacet(kind: MicrofacetType, alpha_u: f32, alpha_v: f32, visib
 
 /// A rough conductor; `metal` names one of Mitsuba's measured conductors, `None` a perfect mirror.
 pub(super) fn rough_conductor(metal: Option<&str>, distribution: Microfacet) -> Bsdf {
-    let ior = match metal {
-        None => ConductorIor::mirror(),
-        Some(name) => {
-            let &(_, eta, k) = named_conductors::NAMED_CONDUCTORS
-                .iter()
-                .find(|(n, _, _)| *n == name)
-                .expect("a named conductor");
-            ConductorIor {
-                eta: Vec3::from(eta),
-                k: Vec3::from(k),
-                specular_reflectance: Vec3::ONE,
-            }
-        }
-    };
+    let ior = metal.map_or_else(ConductorIor::mirror, |name| {
+        ConductorIor::named(name).expect("a named conductor")
+    });
     Bsdf::RoughConductor(RoughConductor { ior, distribution })
 }
 

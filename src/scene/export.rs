@@ -101,7 +101,7 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
 
     for (name, m) in &desc.materials {
         let field = format!("materials.{name}");
-        x.push_str(&material_xml(m, &escape(name), &field, &file, &mut warnings)?);
+        x.push_str(&material_xml(m, false, &escape(name), &field, &file, &mut warnings)?);
     }
 
     let scene_dir = scene.parent().unwrap_or(Path::new(""));
@@ -251,10 +251,25 @@ fn escape(s: &str) -> String {
 }
 
 /// One material as a top-level `<bsdf id>`: reflecting models wrapped in `twosided` (ours reflect
-/// on both sides), a `one_sided` one bare (Mitsuba's own sidedness), dielectrics as they are.
-fn material_xml(m: &MaterialDesc, id: &str, field: &str, file: &str, warnings: &mut Vec<String>) -> Result<String> {
+/// on both sides) unless `one_sided` (Mitsuba's own sidedness: the BSDF bare), dielectrics as
+/// they are.
+fn material_xml(
+    m: &MaterialDesc,
+    one_sided: bool,
+    id: &str,
+    field: &str,
+    file: &str,
+    warnings: &mut Vec<String>,
+) -> Result<String> {
     let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
-    let twosided = |inner: String| format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n");
+    let twosided = |inner: String| {
+        if one_sided {
+            // The nested element itself, carrying the id.
+            inner.replacen(">", &format!(" id=\"{id}\">"), 1)
+        } else {
+            format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n")
+        }
+    };
     let bsdf = match m {
         MaterialDesc::Diffuse(d) => twosided(format!(
             "        <bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"{}\"/>\n        </bsdf>\n",
@@ -327,22 +342,7 @@ fn material_xml(m: &MaterialDesc, id: &str, field: &str, file: &str, warnings: &
             p.nonlinear.unwrap_or(false),
             roughness_props(&p.roughness(), INNER)
         )),
-        MaterialDesc::OneSided(o) => {
-            // The reflecting BSDF without the `twosided` wrapper, carrying the id itself.
-            let wrapped = material_xml(&o.bsdf, id, field, file, warnings)?;
-            let mut lines: Vec<&str> = wrapped.lines().collect();
-            if lines.len() < 3 || !lines[0].contains("type=\"twosided\"") {
-                return Err(err(field, "one_sided wraps a reflecting material"));
-            }
-            lines.remove(0);
-            lines.pop();
-            let inner: Vec<&str> = lines.iter().map(|l| l.strip_prefix("    ").unwrap_or(l)).collect();
-            let mut text = inner.join("\n") + "\n";
-            if let Some(end) = text.find('>') {
-                text.insert_str(end, &format!(" id=\"{id}\""));
-            }
-            text
-        }
+        MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, warnings)?,
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
         MaterialDesc::DiffuseTransmission(_) => {
             return Err(err(field, "diffuse_transmission has no Mitsuba 3 equivalent"));

@@ -4,7 +4,7 @@
 use super::*;
 use crate::bsdf::{
     Bsdf, Conductor, ConductorIor, Microfacet, MicrofacetType, RoughConductor, RoughDielectric, RoughPlastic,
-    named_conductors::NAMED_CONDUCTORS,
+    named_conductor_list,
 };
 use crate::error::Result;
 use crate::scene::desc::{self, Roughness, Triple};
@@ -83,17 +83,16 @@ pub(super) fn conductor_ior(ctx: &Ctx, field: &str, c: &desc::Conductor) -> Resu
             if c.eta.is_some() || c.k.is_some() {
                 return Err(ctx.err(&f("material"), "give either a named material or eta and k, not both"));
             }
-            let &(_, eta, k) = NAMED_CONDUCTORS.iter().find(|(n, _, _)| *n == name).ok_or_else(|| {
-                let names: Vec<&str> = NAMED_CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+            let named = ConductorIor::named(name).ok_or_else(|| {
                 ctx.err(
                     &f("material"),
                     format!(
                         "unknown conductor {name:?}; expected \"none\" or one of {}",
-                        names.join(", ")
+                        named_conductor_list()
                     ),
                 )
             })?;
-            (Vec3::from(eta), Vec3::from(k))
+            (named.eta, named.k)
         }
         _ => (
             c.eta.map_or(Ok(Vec3::ZERO), |v| non_negative("eta", v))?,

@@ -153,14 +153,12 @@ impl<'a, 'i> Reader<'a, 'i> {
         let material = match self.string(o, "material")? {
             Some((_, m)) if m == "none" => None,
             Some((p, m)) => {
-                let names = crate::bsdf::named_conductors::NAMED_CONDUCTORS;
-                if !names.iter().any(|(n, _, _)| *n == m) {
-                    let list: Vec<&str> = names.iter().map(|(n, _, _)| *n).collect();
+                if crate::bsdf::ConductorIor::named(&m).is_none() {
                     return Err(self.err(
                         p,
                         format!(
                             "value: unknown conductor {m:?}; expected \"none\" or one of {}",
-                            list.join(", ")
+                            crate::bsdf::named_conductor_list()
                         ),
                     ));
                 }
