@@ -35,6 +35,7 @@ pub mod sampling;
 pub mod scene;
 pub mod spectrum;
 pub mod strategy;
+pub mod texture;
 pub mod util;
 
 pub use error::{Error, Result};

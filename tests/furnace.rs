@@ -14,23 +14,22 @@ use photon_bench::strategy::{Path, Strategy};
 
 fn furnace(albedo: f32, le: f32) -> Scene {
     let camera = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60.0, 8, 8);
-    let materials = vec![Material {
-        name: "grey".into(),
-        bsdf: Bsdf::Lambertian(Lambertian {
+    let materials = vec![Material::new(
+        "grey",
+        Bsdf::Lambertian(Lambertian {
             reflectance: Vec3::splat(albedo),
         }),
-    }];
+    )];
     let prims = vec![Primitive::Sphere {
         center: Vec3::new(0.1, -0.2, 0.05),
         radius: 1.0,
     }];
     let attrs = vec![PrimAttrs {
-        material: 0,
-        normals: None,
         emission: Some(Emission {
             le: Vec3::splat(le),
             two_sided: true,
         }),
+        ..PrimAttrs::new(0)
     }];
     Scene::assemble(
         "furnace".into(),
@@ -147,14 +146,14 @@ fn a_lossless_thin_dielectric_sheet_keeps_the_furnace() {
     let albedo = 0.5f32;
     let base = furnace(albedo, 1.0);
     let mut materials = base.materials.clone();
-    materials.push(Material {
-        name: "pane".into(),
-        bsdf: Bsdf::ThinDielectric(ThinDielectric {
+    materials.push(Material::new(
+        "pane",
+        Bsdf::ThinDielectric(ThinDielectric {
             ior: 1.5,
             reflectance: Vec3::ONE,
             transmittance: Vec3::ONE,
         }),
-    });
+    ));
     let mut prims = base.primitives.clone();
     let mut attrs = base.attrs.clone();
     // A tilted square through the sphere's middle, in front of the camera.
@@ -166,11 +165,7 @@ fn a_lossless_thin_dielectric_sheet_keeps_the_furnace() {
     );
     for tri in [[a, b, c], [a, c, d]] {
         prims.push(Primitive::Triangle(tri));
-        attrs.push(PrimAttrs {
-            material: 1,
-            normals: None,
-            emission: None,
-        });
+        attrs.push(PrimAttrs::new(1));
     }
     let scene = Scene::assemble(
         "furnace-pane".into(),

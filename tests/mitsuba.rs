@@ -390,7 +390,7 @@ fn bad_xml_is_refused_naming_the_element() {
         ),
         (
             scene_xml(&format!("{LIGHT}<texture type=\"bitmap\" id=\"t\"/>")),
-            &["<texture", "unsupported element"],
+            &["<texture type=\"bitmap\" id=\"t\">", "filename"],
         ),
         (
             scene_xml(&format!(

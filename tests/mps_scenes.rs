@@ -101,7 +101,7 @@ fn check_user_paths(scene: &Scene) -> Vec<Vec<String>> {
             } else if bsdf.is_delta() {
                 // The next segment must leave in the specular direction, within its cone.
                 let out = (pts[i + 2] - pts[i + 1]).normalize();
-                let expected = match bsdf {
+                let expected = match &*bsdf {
                     Bsdf::Mirror(_) => reflect(d, next.ng),
                     Bsdf::Dielectric(g) => refract(d, next.ng, g.ior)
                         .unwrap_or_else(|| panic!("path {j}: total internal reflection at point {}", i + 1)),

@@ -122,6 +122,17 @@ pub enum Bsdf {
     OneSided(Box<Bsdf>),
 }
 
+/// A colour parameter that a texture can drive ([`crate::scene::Material::textures`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColorParam {
+    /// `reflectance` of diffuse and mirror.
+    Reflectance,
+    /// `diffuse_reflectance` of rough plastic.
+    DiffuseReflectance,
+    /// `specular_reflectance` of conductors, rough dielectrics and rough plastic.
+    SpecularReflectance,
+}
+
 impl BsdfSample {
     /// The one direction of a delta reflection, the mirror image of `wo`, chosen with
     /// probability 1 and carrying `weight` = f_s |cos θi| / pdf; `None` at grazing `wo`.
@@ -239,6 +250,25 @@ impl Bsdf {
             Bsdf::OneSided(_) => None,
             b => Some(b),
         }
+    }
+
+    /// Sets a colour parameter (a texture's value at a hit); returns false, changing nothing,
+    /// when the model has no such parameter. A one-sided model sets its inner model's.
+    pub fn set_color(&mut self, param: ColorParam, c: Vec3) -> bool {
+        use ColorParam::*;
+        let field = match (self, param) {
+            (Bsdf::OneSided(b), _) => return b.set_color(param, c),
+            (Bsdf::Lambertian(b), Reflectance) => &mut b.reflectance,
+            (Bsdf::Mirror(b), Reflectance) => &mut b.reflectance,
+            (Bsdf::RoughPlastic(b), DiffuseReflectance) => &mut b.diffuse_reflectance,
+            (Bsdf::RoughPlastic(b), SpecularReflectance) => &mut b.specular_reflectance,
+            (Bsdf::Conductor(b), SpecularReflectance) => &mut b.ior.specular_reflectance,
+            (Bsdf::RoughConductor(b), SpecularReflectance) => &mut b.ior.specular_reflectance,
+            (Bsdf::RoughDielectric(b), SpecularReflectance) => &mut b.specular_reflectance,
+            _ => return false,
+        };
+        *field = c;
+        true
     }
 
     /// Path-grammar class: any diffuse component makes a surface [`SurfaceKind::Diffuse`].

@@ -221,6 +221,7 @@ mod tests {
                 frame: crate::geometry::Frame::from_normal(Vec3::Z),
                 prim: 0,
                 material: 0,
+                bary: glam::Vec2::ZERO,
             },
             wo: Vec3::Z,
             reference,

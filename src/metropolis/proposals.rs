@@ -280,7 +280,7 @@ fn user_specular_direction(scene: &Scene, u: &UserPathInfo, i: usize, from: &Ver
         return None;
     }
     let wo = y.frame.to_local(direction(y, from).0);
-    let wi = specular_direction(y.bsdf(scene), wo, u.reflect[i])?;
+    let wi = specular_direction(&y.bsdf(scene), wo, u.reflect[i])?;
     Some(y.frame.to_world(wi))
 }
 
@@ -430,7 +430,7 @@ pub fn lens_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<C
         }
         let v = y[i + 1];
         let wo = v.frame.to_local(direction(&v, &y[i + 2]).0);
-        let wi = specular_direction(v.bsdf(scene), wo, reflects_at(x, i + 1))?;
+        let wi = specular_direction(&v.bsdf(scene), wo, reflects_at(x, i + 1))?;
         y[i] = trace_from(scene, &v, v.frame.to_world(wi))?;
     }
     if y[d].delta || !visible(scene, &y[d - 1], &y[d]) {
@@ -475,7 +475,7 @@ pub fn caustic_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Optio
             }
             let v = y[i];
             let wo = v.frame.to_local(direction(&v, &y[i - 1]).0);
-            let wi = specular_direction(v.bsdf(scene), wo, reflects_at(x, i))?;
+            let wi = specular_direction(&v.bsdf(scene), wo, reflects_at(x, i))?;
             dir = v.frame.to_world(wi);
         }
     }
@@ -602,7 +602,7 @@ pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> O
         }
         let dir = if v.delta {
             let wo = v.frame.to_local(direction(&v, &y[i + 1]).0);
-            let wi = specular_direction(v.bsdf(scene), wo, reflects_at(x, i))?;
+            let wi = specular_direction(&v.bsdf(scene), wo, reflects_at(x, i))?;
             v.frame.to_world(wi)
         } else if x[i - 1].connectible() {
             if !visible(scene, &x[i - 1], &v) {

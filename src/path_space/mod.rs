@@ -30,6 +30,7 @@ use crate::bsdf::{Bsdf, TransportMode};
 use crate::geometry::{Frame, spawn_shadow_ray};
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
+use std::borrow::Cow;
 use std::f32::consts::FRAC_1_PI;
 
 /// What a vertex is.
@@ -54,6 +55,8 @@ pub struct Vertex {
     /// Primitive the vertex lies on (`u32::MAX` for the eye).
     pub prim: u32,
     pub material: u32,
+    /// Texture coordinates (surface vertices of textured materials; zero otherwise).
+    pub uv: Vec2,
     pub kind: VertexKind,
     /// Only delta lobes (mirror, smooth dielectric): a "specular" vertex, S in Heckbert's grammar.
     pub delta: bool,
@@ -68,6 +71,7 @@ impl Vertex {
             frame: hit.frame,
             prim: hit.prim,
             material: hit.material,
+            uv: scene.texture_uv(hit),
             kind: VertexKind::Surface,
             delta: scene.bsdf(hit).is_delta(),
         }
@@ -82,6 +86,7 @@ impl Vertex {
             frame: Frame::from_normal(n),
             prim,
             material: scene.attrs[prim as usize].material,
+            uv: Vec2::ZERO,
             kind: VertexKind::Light(light as u32),
             delta: false,
         }
@@ -96,6 +101,7 @@ impl Vertex {
             frame: Frame::from_normal(forward),
             prim: u32::MAX,
             material: u32::MAX,
+            uv: Vec2::ZERO,
             kind: VertexKind::Eye,
             delta: false,
         }
@@ -122,8 +128,8 @@ impl Vertex {
     }
 
     #[inline]
-    pub fn bsdf<'a>(&self, scene: &'a Scene) -> &'a Bsdf {
-        &scene.materials[self.material as usize].bsdf
+    pub fn bsdf<'a>(&self, scene: &'a Scene) -> Cow<'a, Bsdf> {
+        scene.materials[self.material as usize].bsdf_at(|| self.uv)
     }
 }
 
@@ -197,7 +203,7 @@ pub fn scattering(scene: &Scene, path: &[Vertex], i: usize) -> Vec3 {
     };
     let bsdf = v.bsdf(scene);
     if v.delta {
-        delta_lobe(bsdf, wo, wi, TransportMode::Radiance).map_or(Vec3::ZERO, |(f, _)| f)
+        delta_lobe(&bsdf, wo, wi, TransportMode::Radiance).map_or(Vec3::ZERO, |(f, _)| f)
     } else {
         bsdf.eval(wo, wi, TransportMode::Radiance)
     }
@@ -316,7 +322,7 @@ pub fn pdf_eye_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
 fn direction_pdf(scene: &Scene, v: &Vertex, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
     let bsdf = v.bsdf(scene);
     if v.delta {
-        delta_lobe(bsdf, wo, wi, mode).map_or(0.0, |(_, p)| p)
+        delta_lobe(&bsdf, wo, wi, mode).map_or(0.0, |(_, p)| p)
     } else {
         bsdf.pdf(wo, wi)
     }

@@ -24,10 +24,8 @@ impl SceneBuilder {
     }
 
     pub fn material(&mut self, bsdf: Bsdf) -> u32 {
-        self.materials.push(Material {
-            name: format!("m{}", self.materials.len()),
-            bsdf,
-        });
+        self.materials
+            .push(Material::new(format!("m{}", self.materials.len()), bsdf));
         self.materials.len() as u32 - 1
     }
 
@@ -42,29 +40,23 @@ impl SceneBuilder {
         for tri in [[a, b, c], [a, c, d]] {
             self.prims.push(Primitive::Triangle(tri));
             self.attrs.push(PrimAttrs {
-                material,
-                normals: None,
                 emission: le.map(|le| Emission { le, two_sided: false }),
+                ..PrimAttrs::new(material)
             });
         }
     }
 
     pub fn sphere(&mut self, center: Vec3, radius: f32, material: u32) {
         self.prims.push(Primitive::Sphere { center, radius });
-        self.attrs.push(PrimAttrs {
-            material,
-            normals: None,
-            emission: None,
-        });
+        self.attrs.push(PrimAttrs::new(material));
     }
 
     /// A sphere emitting `emission` from its surface.
     pub fn sphere_light(&mut self, center: Vec3, radius: f32, material: u32, emission: Emission) {
         self.prims.push(Primitive::Sphere { center, radius });
         self.attrs.push(PrimAttrs {
-            material,
-            normals: None,
             emission: Some(emission),
+            ..PrimAttrs::new(material)
         });
     }
 

@@ -20,6 +20,12 @@
 //! [materials.white]
 //! type = "diffuse"                  # Lambertian
 //! reflectance = [0.73, 0.73, 0.73]  # each channel in [0, 1]
+//! [materials.floor]
+//! type = "diffuse"                  # a colour may be a texture instead (also rough_plastic's
+//! reflectance = { type = "checkerboard", color0 = [0.2, 0.2, 0.2], color1 = [0.4, 0.4, 0.4],
+//!                 to_uv = { scale = [8, 8] } }   # diffuse_reflectance); or:
+//! # reflectance = { type = "bitmap", file = "textures/wood.png", filter = "bilinear",
+//! #                 wrap = "repeat", raw = false, to_uv = { matrix = [[1, 0, 0], [0, 1, 0]] } }
 //! [materials.chrome]
 //! type = "mirror"                   # ideal specular reflection
 //! reflectance = [1, 1, 1]           # optional, default [1, 1, 1]; in [0, 1]
@@ -268,7 +274,64 @@ pub struct OneSided {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Diffuse {
-    pub reflectance: Triple,
+    pub reflectance: Color,
+}
+
+/// A colour parameter: an RGB triple, or a texture table.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Color {
+    Rgb(Triple),
+    Texture(Box<TextureDesc>),
+}
+
+impl From<Triple> for Color {
+    fn from(v: Triple) -> Self {
+        Color::Rgb(v)
+    }
+}
+
+/// A texture (Mitsuba 3's `checkerboard` and `bitmap`); `type` selects the variant.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum TextureDesc {
+    Checkerboard(CheckerboardDesc),
+    Bitmap(BitmapDesc),
+}
+
+/// Two colours in a checker pattern with cells ½ × ½ in (u, v) (after `to_uv`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckerboardDesc {
+    /// Default 0.4 (Mitsuba's).
+    pub color0: Option<Triple>,
+    /// Default 0.2.
+    pub color1: Option<Triple>,
+    pub to_uv: Option<UvTransformDesc>,
+}
+
+/// An image file: PNG, JPEG (sRGB) or OpenEXR (linear).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BitmapDesc {
+    /// Relative to the directory of the scene file.
+    pub file: String,
+    /// "bilinear" (default) or "nearest".
+    pub filter: Option<String>,
+    /// "repeat" (default), "mirror" or "clamp".
+    pub wrap: Option<String>,
+    /// Use 8-bit values as they are instead of decoding sRGB (default false).
+    pub raw: Option<bool>,
+    pub to_uv: Option<UvTransformDesc>,
+}
+
+/// An affine map of texture coordinates: `scale` then `offset`, or a `matrix` alone (2 rows of
+/// 3: (u', v') = M (u, v) + t with t the last column).
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UvTransformDesc {
+    pub scale: Option<Fixed<f64, 2>>,
+    pub offset: Option<Fixed<f64, 2>>,
+    pub matrix: Option<Fixed<Fixed<f64, 3>, 2>>,
 }
 
 /// Ideal specular reflection.
@@ -378,7 +441,7 @@ rough_material! {
     /// A diffuse base under a rough dielectric coating (Mitsuba's `roughplastic`).
     RoughPlastic {
         /// Default 0.5.
-        pub diffuse_reflectance: Option<Triple>,
+        pub diffuse_reflectance: Option<Color>,
         pub specular_reflectance: Option<Triple>,
         /// Relative index of the coating; default 1.49 (polypropylene), Mitsuba's default.
         pub ior: Option<f64>,
@@ -606,6 +669,26 @@ impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Fixed<T, N> 
             }
         }
         d.deserialize_seq(V(std::marker::PhantomData))
+    }
+}
+
+impl<'de> Deserialize<'de> for Color {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Color;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of 3 numbers or a texture table")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Color, A::Error> {
+                Triple::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(Color::Rgb)
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Color, A::Error> {
+                TextureDesc::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(|t| Color::Texture(Box::new(t)))
+            }
+        }
+        d.deserialize_any(V)
     }
 }
 

@@ -22,7 +22,7 @@
 //! Reading the file back ([`super::mitsuba::import`]) gives the same scene: same triangles and spheres to
 //! float precision, same camera rays, same materials (`tests/mitsuba.rs`).
 
-use super::desc::{self, Fixed, MaterialDesc, Roughness, SceneDesc, ShapeDesc, Triple};
+use super::desc::{self, Color, Fixed, MaterialDesc, Roughness, SceneDesc, ShapeDesc, TextureDesc, Triple};
 use super::load::{load_scene_with_stats, quad_corner_edges, read_desc, shape_transform};
 use crate::error::{Context, Error, Result};
 use glam::{DAffine3, DMat3, DMat4, DVec3};
@@ -99,12 +99,21 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
     let _ = writeln!(x, "        </film>");
     let _ = writeln!(x, "    </sensor>");
 
+    let scene_dir = scene.parent().unwrap_or(Path::new(""));
+    let files = Files { scene_dir, out_dir };
     for (name, m) in &desc.materials {
         let field = format!("materials.{name}");
-        x.push_str(&material_xml(m, false, &escape(name), &field, &file, &mut warnings)?);
+        x.push_str(&material_xml(
+            m,
+            false,
+            &escape(name),
+            &field,
+            &file,
+            &files,
+            &mut warnings,
+        )?);
     }
 
-    let scene_dir = scene.parent().unwrap_or(Path::new(""));
     for (i, shape) in desc.shapes.iter().enumerate() {
         let field = format!("shapes[{i}]");
         let (material, transform, emission) = shape.common();
@@ -150,15 +159,7 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             }
             ShapeDesc::Mesh(m) => {
                 let path = scene_dir.join(&m.file);
-                let same_dir = match (scene_dir.canonicalize(), out_dir.canonicalize()) {
-                    (Ok(a), Ok(b)) => a == b,
-                    _ => false,
-                };
-                let written: PathBuf = if same_dir {
-                    PathBuf::from(&m.file)
-                } else {
-                    path.canonicalize().unwrap_or(path.clone())
-                };
+                let written = files.written(&m.file);
                 let kind = match path
                     .extension()
                     .and_then(|e| e.to_str())
@@ -250,6 +251,84 @@ fn escape(s: &str) -> String {
         .replace('\'', "&apos;")
 }
 
+/// Where the scene's files are and where the XML goes.
+struct Files<'a> {
+    scene_dir: &'a Path,
+    out_dir: &'a Path,
+}
+
+impl Files<'_> {
+    /// A file the scene names (relative to its directory) as the written XML must name it:
+    /// as it is when the XML goes to the same directory, by its absolute path otherwise.
+    fn written(&self, file: &str) -> PathBuf {
+        let same_dir = match (self.scene_dir.canonicalize(), self.out_dir.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        let path = self.scene_dir.join(file);
+        if same_dir {
+            PathBuf::from(file)
+        } else {
+            path.canonicalize().unwrap_or(path)
+        }
+    }
+
+    /// A colour parameter: `<rgb>`, or the texture as a nested `<texture>`.
+    fn color(&self, name: &str, c: &Color, indent: &str) -> String {
+        let t = match c {
+            Color::Rgb(v) => return format!("{indent}<rgb name=\"{name}\" value=\"{}\"/>\n", nums(&v.0)),
+            Color::Texture(t) => t,
+        };
+        let inner = format!("{indent}    ");
+        let (kind, mut props, to_uv) = match &**t {
+            TextureDesc::Checkerboard(c) => (
+                "checkerboard",
+                format!(
+                    "{inner}<rgb name=\"color0\" value=\"{}\"/>\n{inner}<rgb name=\"color1\" value=\"{}\"/>\n",
+                    nums(&c.color0.unwrap_or(Fixed([0.4; 3])).0),
+                    nums(&c.color1.unwrap_or(Fixed([0.2; 3])).0)
+                ),
+                c.to_uv.as_ref(),
+            ),
+            TextureDesc::Bitmap(b) => {
+                let mut props = format!(
+                    "{inner}<string name=\"filename\" value=\"{}\"/>\n",
+                    escape(&self.written(&b.file).display().to_string())
+                );
+                for (key, v) in [("filter_type", &b.filter), ("wrap_mode", &b.wrap)] {
+                    if let Some(v) = v {
+                        let _ = writeln!(props, "{inner}<string name=\"{key}\" value=\"{}\"/>", escape(v));
+                    }
+                }
+                if let Some(raw) = b.raw {
+                    let _ = writeln!(props, "{inner}<boolean name=\"raw\" value=\"{raw}\"/>");
+                }
+                ("bitmap", props, b.to_uv.as_ref())
+            }
+        };
+        if let Some(t) = to_uv {
+            // As a 4 × 4 matrix: the 2 × 2 block upper left, the offset in the last column.
+            let [a, b] = match t.matrix {
+                Some(m) => [m[0].0, m[1].0],
+                None => {
+                    let s = t.scale.map_or([1.0; 2], |s| s.0);
+                    let o = t.offset.map_or([0.0; 2], |o| o.0);
+                    [[s[0], 0.0, o[0]], [0.0, s[1], o[1]]]
+                }
+            };
+            let m = [
+                a[0], a[1], 0.0, a[2], b[0], b[1], 0.0, b[2], 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+            ];
+            let _ = writeln!(
+                props,
+                "{inner}<transform name=\"to_uv\">\n{inner}    <matrix value=\"{}\"/>\n{inner}</transform>",
+                nums(&m)
+            );
+        }
+        format!("{indent}<texture type=\"{kind}\" name=\"{name}\">\n{props}{indent}</texture>\n")
+    }
+}
+
 /// One material as a top-level `<bsdf id>`: reflecting models wrapped in `twosided` (ours reflect
 /// on both sides) unless `one_sided` (Mitsuba's own sidedness: the BSDF bare), dielectrics as
 /// they are.
@@ -259,6 +338,7 @@ fn material_xml(
     id: &str,
     field: &str,
     file: &str,
+    files: &Files,
     warnings: &mut Vec<String>,
 ) -> Result<String> {
     let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
@@ -272,8 +352,8 @@ fn material_xml(
     };
     let bsdf = match m {
         MaterialDesc::Diffuse(d) => twosided(format!(
-            "        <bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"{}\"/>\n        </bsdf>\n",
-            nums(&d.reflectance.0)
+            "        <bsdf type=\"diffuse\">\n{}        </bsdf>\n",
+            files.color("reflectance", &d.reflectance, INNER)
         )),
         MaterialDesc::Mirror(d) => twosided(format!(
             "        <bsdf type=\"conductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
@@ -333,16 +413,16 @@ fn material_xml(
             "        <bsdf type=\"roughplastic\">\n            <float name=\"int_ior\" value=\"{}\"/>\n            \
              <float name=\"ext_ior\" value=\"1\"/>\n{}{}            <boolean name=\"nonlinear\" value=\"{}\"/>\n{}        </bsdf>\n",
             p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
-            optional_rgb(
+            files.color(
                 "diffuse_reflectance",
-                Some(p.diffuse_reflectance.unwrap_or(Fixed([0.5; 3]))),
+                p.diffuse_reflectance.as_ref().unwrap_or(&Color::Rgb(Fixed([0.5; 3]))),
                 INNER
             ),
             optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
             p.nonlinear.unwrap_or(false),
             roughness_props(&p.roughness(), INNER)
         )),
-        MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, warnings)?,
+        MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
         MaterialDesc::DiffuseTransmission(_) => {
             return Err(err(field, "diffuse_transmission has no Mitsuba 3 equivalent"));

@@ -19,21 +19,66 @@ pub mod mitsuba;
 
 pub use load::load_scene;
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, ColorParam};
 use crate::camera::Camera;
 use crate::color::luminance;
 use crate::error::Result;
 use crate::geometry::{Accel, Frame, Hit, Primitive, Ray};
 use crate::light::{AreaLight, Emission};
 use crate::sampling::Distribution1D;
-use glam::{Vec2, Vec3};
+use crate::texture::Texture;
+use glam::{Mat3, Vec2, Vec3};
+use std::borrow::Cow;
+use std::f32::consts::PI;
 use std::path::PathBuf;
 
-/// A named material.
+/// A named material: a reflectance model, some of whose colours may vary over the surface.
 #[derive(Clone, Debug)]
 pub struct Material {
     pub name: String,
+    /// The model; a textured parameter holds the texture's largest value here, so that the
+    /// model's class ([`Bsdf::kind`]) is the one of its most reflective point.
     pub bsdf: Bsdf,
+    /// Parameters driven by textures, replaced in `bsdf` at every hit ([`Material::bsdf_at`]).
+    pub textures: Vec<(ColorParam, Texture)>,
+}
+
+impl Material {
+    /// An untextured material.
+    pub fn new(name: impl Into<String>, bsdf: Bsdf) -> Self {
+        Self {
+            name: name.into(),
+            bsdf,
+            textures: Vec::new(),
+        }
+    }
+
+    /// The model at surface coordinates `uv` (computed only for a textured material): borrowed
+    /// when nothing is textured, the model with its textures evaluated otherwise.
+    #[inline]
+    pub fn bsdf_at(&self, uv: impl FnOnce() -> Vec2) -> Cow<'_, Bsdf> {
+        if self.textures.is_empty() {
+            return Cow::Borrowed(&self.bsdf);
+        }
+        let uv = uv();
+        let mut bsdf = self.bsdf.clone();
+        for (param, texture) in &self.textures {
+            bsdf.set_color(*param, texture.eval(uv));
+        }
+        Cow::Owned(bsdf)
+    }
+}
+
+/// Where a primitive's texture coordinates (u, v) come from, as Mitsuba 3 defines them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum UvMap {
+    /// A triangle without texture coordinates: (u, v) = its barycentrics (b₁, b₂).
+    Barycentric,
+    /// Per-vertex (u, v), interpolated.
+    Vertices([Vec2; 3]),
+    /// A sphere: u = φ / 2π and v = θ / π of the hit's direction from the centre in the
+    /// sphere's own frame (`world_to_local`), θ from its +z axis, φ from +x towards +y.
+    Sphere { world_to_local: Mat3 },
 }
 
 /// What a primitive is made of, besides its shape.
@@ -45,6 +90,20 @@ pub struct PrimAttrs {
     pub normals: Option<[Vec3; 3]>,
     /// Emission, if the primitive is (part of) an area light.
     pub emission: Option<Emission>,
+    /// Texture coordinates.
+    pub uv: UvMap,
+}
+
+impl PrimAttrs {
+    /// A primitive of `material` with no shading normals, emission or texture coordinates.
+    pub fn new(material: u32) -> Self {
+        Self {
+            material,
+            normals: None,
+            emission: None,
+            uv: UvMap::Barycentric,
+        }
+    }
 }
 
 /// A user path for Metropolis photon sampling's UP proposal [Fan et al. 2005, §4.3]: a point on
@@ -90,6 +149,8 @@ pub struct SurfaceHit {
     pub frame: Frame,
     pub prim: u32,
     pub material: u32,
+    /// Barycentrics (b₁, b₂) of a triangle hit (zero for spheres), for texture coordinates.
+    pub bary: Vec2,
 }
 
 /// Smallest barycentric coordinate of a triangle hit point, 2⁻¹⁶: about 256 ULPs of the
@@ -188,9 +249,10 @@ impl Scene {
     pub fn surface_hit(&self, ray: &Ray, hit: Hit) -> SurfaceHit {
         let i = hit.prim as usize;
         let attrs = &self.attrs[i];
+        let mut bary = Vec2::ZERO;
         let (p, ng, ns, tangent) = match self.primitives[i] {
             Primitive::Triangle([a, b, c]) => {
-                let bary = pull_off_edges(hit.b);
+                bary = pull_off_edges(hit.b);
                 let b0 = 1.0 - bary.x - bary.y;
                 let p = b0 * a + bary.x * b + bary.y * c;
                 let ng = (b - a).cross(c - a).normalize();
@@ -223,12 +285,46 @@ impl Scene {
             frame: Frame::from_normal_tangent(ns, tangent),
             prim: hit.prim,
             material: attrs.material,
+            bary,
         }
     }
 
+    /// The reflectance model at a hit, its textures evaluated there.
     #[inline]
-    pub fn bsdf(&self, hit: &SurfaceHit) -> &Bsdf {
-        &self.materials[hit.material as usize].bsdf
+    pub fn bsdf(&self, hit: &SurfaceHit) -> Cow<'_, Bsdf> {
+        self.materials[hit.material as usize].bsdf_at(|| self.uv(hit))
+    }
+
+    /// Texture coordinates of a hit when its material has textures, zero otherwise (what a
+    /// path vertex keeps to evaluate its model later).
+    #[inline]
+    pub fn texture_uv(&self, hit: &SurfaceHit) -> Vec2 {
+        if self.materials[hit.material as usize].textures.is_empty() {
+            Vec2::ZERO
+        } else {
+            self.uv(hit)
+        }
+    }
+
+    /// Texture coordinates (u, v) of a hit ([`UvMap`]).
+    pub fn uv(&self, hit: &SurfaceHit) -> Vec2 {
+        let i = hit.prim as usize;
+        match self.attrs[i].uv {
+            UvMap::Barycentric => hit.bary,
+            UvMap::Vertices([a, b, c]) => (1.0 - hit.bary.x - hit.bary.y) * a + hit.bary.x * b + hit.bary.y * c,
+            UvMap::Sphere { world_to_local } => {
+                let Primitive::Sphere { center, .. } = self.primitives[i] else {
+                    return hit.bary;
+                };
+                let d = world_to_local * (hit.p - center).normalize_or_zero();
+                let theta = d.z.clamp(-1.0, 1.0).acos();
+                let mut phi = d.y.atan2(d.x);
+                if phi < 0.0 {
+                    phi += 2.0 * PI;
+                }
+                Vec2::new(phi / (2.0 * PI), theta / PI)
+            }
+        }
     }
 
     /// The light a primitive belongs to, if it emits.

@@ -375,11 +375,11 @@ pub fn trace<S: DirectionSampler>(
 
         let bsdf = scene.bsdf(&hit);
         let wo = hit.frame.to_local(-ray.d);
-        let vertex = sampler.vertex(scene, &hit, bsdf, wo);
+        let vertex = sampler.vertex(scene, &hit, &bsdf, wo);
         let lights = (nee && !bsdf.is_delta()).then(|| {
             params
                 .lights
-                .at(scene, hit.p, || receiver(&hit, bsdf, wo), &mut weights)
+                .at(scene, hit.p, || receiver(&hit, &bsdf, wo), &mut weights)
         });
         if let Some(lights) = &lights {
             let light_choice = (lights, &weights);
@@ -388,7 +388,7 @@ pub fn trace<S: DirectionSampler>(
                 * estimate_direct(
                     scene,
                     &hit,
-                    bsdf,
+                    &bsdf,
                     wo,
                     rng,
                     direct,
@@ -400,7 +400,7 @@ pub fn trace<S: DirectionSampler>(
             tally.contributed(ld);
         }
 
-        let Some(s) = sampler.sample(&vertex, bsdf, wo, rng) else {
+        let Some(s) = sampler.sample(&vertex, &bsdf, wo, rng) else {
             break;
         };
         let wi = hit.frame.to_world(s.wi);
@@ -419,7 +419,7 @@ pub fn trace<S: DirectionSampler>(
         if depth > params.rr_depth {
             let q = match params.roulette {
                 Roulette::Throughput => beta.max_element(),
-                Roulette::Albedo => scattering_albedo(bsdf, wo, &s).max_element(),
+                Roulette::Albedo => scattering_albedo(&bsdf, wo, &s).max_element(),
             }
             .min(0.95);
             if rng.uniform() >= q {

@@ -7,9 +7,9 @@ use crate::error::Result;
 use crate::geometry::Primitive;
 use crate::light::Emission;
 use crate::resources::{check_memory, memory_limit};
-use crate::scene::PrimAttrs;
 use crate::scene::desc::{self, ShapeDesc};
-use glam::{DMat3, DVec3, Vec3};
+use crate::scene::{PrimAttrs, UvMap};
+use glam::{DMat3, DVec2, DVec3, Vec3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -75,16 +75,16 @@ impl Builder<'_> {
             }
         };
         let attrs = PrimAttrs {
-            material,
-            normals: None,
             emission,
+            ..PrimAttrs::new(material)
         };
         let xf = transform(ctx, field, t)?;
         match shape {
             ShapeDesc::Quad(q) => {
                 let (corner, u, v) = quad_frame(ctx, field, q)?;
                 let n = self.subdivision(field, q.subdivide, 2)?;
-                self.quad(field, &xf, corner, u, v, n, attrs)
+                // (u, v) = (s, t), Mitsuba's rectangle parameterization.
+                self.quad(field, &xf, [corner, u, v], [DVec2::ZERO, DVec2::X, DVec2::Y], n, attrs)
             }
             ShapeDesc::Box(b) => {
                 let (lo, hi) = match (b.min, b.max, b.center, b.size) {
@@ -125,7 +125,16 @@ impl Builder<'_> {
                     (DVec3::new(lo.x, lo.y, hi.z), x, y),
                 ];
                 for (corner, u, v) in faces {
-                    self.quad(field, &xf, corner, u, v, n, attrs)?;
+                    // Mitsuba's cube parameterization, affine on each face.
+                    let local = |p: DVec3| 2.0 * (p - lo) / d - DVec3::ONE;
+                    let normal = u.cross(v).normalize();
+                    let uv0 = cube_uv(local(corner), normal);
+                    let uvs = [
+                        uv0,
+                        cube_uv(local(corner + u), normal) - uv0,
+                        cube_uv(local(corner + v), normal) - uv0,
+                    ];
+                    self.quad(field, &xf, [corner, u, v], uvs, n, attrs)?;
                 }
                 Ok(())
             }
@@ -160,7 +169,13 @@ impl Builder<'_> {
                     center: c.as_vec3(),
                     radius: r as f32,
                 });
-                self.attrs.push(attrs);
+                // The transform's rotation (or reflection) turns the sphere's own frame, in which
+                // its (u, v) are defined.
+                let world_to_local = (l / s2.sqrt()).transpose().as_mat3();
+                self.attrs.push(PrimAttrs {
+                    uv: UvMap::Sphere { world_to_local },
+                    ..attrs
+                });
                 Ok(())
             }
             ShapeDesc::Mesh(m) => self.mesh(field, m, &xf, attrs),
@@ -188,33 +203,43 @@ impl Builder<'_> {
     }
 
     /// Adds the parallelogram corner + s·u + t·v as an n × n grid of cells, two triangles each,
-    /// facing u × v. Cell corners are computed from the integer grid indices (never by
-    /// accumulating steps), so neighbouring cells share their vertices exactly: no cracks.
-    #[allow(clippy::too_many_arguments)]
+    /// facing u × v, with texture coordinates uv₀ + s·du + t·dv (`[uv₀, du, dv]`). Cell corners
+    /// are computed from the integer grid indices (never by accumulating steps), so neighbouring
+    /// cells share their vertices exactly: no cracks.
     pub(super) fn quad(
         &mut self,
         field: &str,
         xf: &Xform,
-        corner: DVec3,
-        u: DVec3,
-        v: DVec3,
+        [corner, u, v]: [DVec3; 3],
+        [uv0, du, dv]: [DVec2; 3],
         n: u32,
         attrs: PrimAttrs,
     ) -> Result<()> {
-        let at = |i: u32, j: u32| corner + u * (f64::from(i) / f64::from(n)) + v * (f64::from(j) / f64::from(n));
+        let st = |i: u32, j: u32| (f64::from(i) / f64::from(n), f64::from(j) / f64::from(n));
+        let at = |i: u32, j: u32| {
+            let (s, t) = st(i, j);
+            (corner + u * s + v * t, uv0 + du * s + dv * t)
+        };
         for j in 0..n {
             for i in 0..n {
-                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-                self.cell(field, xf, [a, b, c, d], attrs)?;
+                let cell = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
+                self.cell(field, xf, cell.map(|c| c.0), cell.map(|c| c.1), attrs)?;
             }
         }
         Ok(())
     }
 
     /// Adds one parallelogram a b c d (counter-clockwise about its front) as two triangles.
-    pub(super) fn cell(&mut self, field: &str, xf: &Xform, [a, b, c, d]: [DVec3; 4], attrs: PrimAttrs) -> Result<()> {
-        for tri in [[a, b, c], [a, c, d]] {
-            match self.triangle(xf, tri, None, attrs) {
+    pub(super) fn cell(
+        &mut self,
+        field: &str,
+        xf: &Xform,
+        [a, b, c, d]: [DVec3; 4],
+        [ta, tb, tc, td]: [DVec2; 4],
+        attrs: PrimAttrs,
+    ) -> Result<()> {
+        for (tri, uv) in [([a, b, c], [ta, tb, tc]), ([a, c, d], [ta, tc, td])] {
+            match self.triangle(xf, tri, None, Some(uv), attrs) {
                 Ok(()) => {}
                 Err(TriangleError::OutOfRange(msg)) => return Err(self.ctx.err(field, msg)),
                 Err(TriangleError::Degenerate) => {
@@ -229,12 +254,14 @@ impl Builder<'_> {
         Ok(())
     }
 
-    /// Transforms and adds one triangle, given CCW about its intended front side.
+    /// Transforms and adds one triangle, given CCW about its intended front side, with its
+    /// vertices' shading normals and texture coordinates if any.
     pub(super) fn triangle(
         &mut self,
         xf: &Xform,
         v: [DVec3; 3],
         normals: Option<[DVec3; 3]>,
+        uvs: Option<[DVec2; 3]>,
         attrs: PrimAttrs,
     ) -> std::result::Result<(), TriangleError> {
         let mut w = v.map(|p| xf.point(p));
@@ -251,10 +278,22 @@ impl Builder<'_> {
             let ns = ns.map(|n| (xf.normal_matrix * n).normalize_or_zero().as_vec3());
             ns.iter().all(|n| n.is_finite() && *n != Vec3::ZERO).then_some(ns)
         });
-        if xf.flips {
+        let mut uvs = uvs.map(|t| t.map(|t| t.as_vec2()));
+        // The front side follows the vertex normals where a file has them (Mitsuba shades, and
+        // decides one-sidedness and inside/outside, in the frame of the interpolated normal,
+        // whatever the winding says), the winding otherwise (turned back by a mirroring
+        // transform). A triangle wound against its world normals is turned around.
+        let turn = match n {
+            Some(ns) => (w[1] - w[0]).cross(w[2] - w[0]).dot((ns[0] + ns[1] + ns[2]).as_dvec3()) < 0.0,
+            None => xf.flips,
+        };
+        if turn {
             w.swap(1, 2);
             if let Some(ns) = n.as_mut() {
                 ns.swap(1, 2);
+            }
+            if let Some(t) = uvs.as_mut() {
+                t.swap(1, 2);
             }
         }
         let p = w.map(|p| p.as_vec3());
@@ -262,7 +301,15 @@ impl Builder<'_> {
             return Err(TriangleError::Degenerate);
         }
         self.primitives.push(Primitive::Triangle(p));
-        self.attrs.push(PrimAttrs { normals: n, ..attrs });
+        let uv = match uvs {
+            Some(t) if t.iter().all(|t| t.is_finite()) => UvMap::Vertices(t),
+            _ => attrs.uv,
+        };
+        self.attrs.push(PrimAttrs {
+            normals: n,
+            uv,
+            ..attrs
+        });
         Ok(())
     }
 
@@ -338,9 +385,11 @@ impl Builder<'_> {
             } else {
                 None
             };
+            let uvs = mesh.uvs.as_ref().filter(|t| t.len() == mesh.positions.len());
             for tri in &mesh.triangles {
                 let ns = normals.as_ref().map(|n| tri.map(|i| n[i]));
-                match self.triangle(xf, tri.map(|i| mesh.positions[i]), ns, attrs) {
+                let ts = uvs.map(|t| tri.map(|i| t[i]));
+                match self.triangle(xf, tri.map(|i| mesh.positions[i]), ns, ts, attrs) {
                     Ok(()) => added += 1,
                     Err(TriangleError::Degenerate) => skipped += 1,
                     Err(TriangleError::OutOfRange(msg)) => {
@@ -415,14 +464,38 @@ impl Builder<'_> {
                 }
                 triangles.push(idx);
             }
+            // Mitsuba flips an OBJ file's v.
+            let uvs = (mesh.texcoords.len() == 2 * positions.len()).then(|| {
+                mesh.texcoords
+                    .chunks_exact(2)
+                    .map(|c| DVec2::new(f64::from(c[0]), 1.0 - f64::from(c[1])))
+                    .collect()
+            });
             meshes.push(TriMesh {
                 name: model.name.clone(),
                 normals: (!mesh.normals.is_empty()).then(|| vecs(&mesh.normals)),
+                uvs,
                 positions,
                 triangles,
             });
         }
         Ok(meshes)
+    }
+}
+
+/// Mitsuba 3's `cube` parameterization: each face of [−1, 1]³ (point `p` on the face with unit
+/// outward `normal`) onto [0, 1]², oriented as Mitsuba's cube (checked against Mitsuba 3.9's
+/// ray intersections).
+fn cube_uv(p: DVec3, normal: DVec3) -> DVec2 {
+    let h = |a: f64| 0.5 * (a + 1.0);
+    let axis = normal.abs().max_position();
+    match (axis, normal[axis] > 0.0) {
+        (0, true) => DVec2::new(h(p.y), h(-p.z)),
+        (0, false) => DVec2::new(h(p.y), h(p.z)),
+        (1, true) => DVec2::new(h(-p.x), h(-p.z)),
+        (1, false) => DVec2::new(h(p.z), h(p.x)),
+        (_, true) => DVec2::new(h(p.y), h(p.x)),
+        (_, false) => DVec2::new(h(-p.y), h(p.x)),
     }
 }
 

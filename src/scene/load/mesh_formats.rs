@@ -6,20 +6,23 @@
 //! caller adds the file name. Counts are checked against the bytes actually present before
 //! anything is allocated, so a hostile header cannot ask for gigabytes.
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::io::Read;
 
-/// One mesh as read from a file: positions, optional per-vertex normals, triangles.
+/// One mesh as read from a file: positions, optional per-vertex normals and texture
+/// coordinates (v already as Mitsuba 3.9.1 reads it: flipped for OBJ only), triangles.
 #[derive(Debug, Default)]
 pub(super) struct TriMesh {
     pub(super) name: String,
     pub(super) positions: Vec<DVec3>,
     pub(super) normals: Option<Vec<DVec3>>,
+    pub(super) uvs: Option<Vec<DVec2>>,
     pub(super) triangles: Vec<[usize; 3]>,
 }
 
 /// A Stanford PLY file: element `vertex` with `x`, `y`, `z` (and `nx`, `ny`, `nz` if all three
-/// are present), element `face` with a list property `vertex_indices` (or `vertex_index`);
+/// are present; texture coordinates `u`, `v` or `s`, `t` or `texture_u`, `texture_v`, taken as
+/// they are, as Mitsuba 3.9.1 does — its development version flips v as for OBJ), element `face` with a list property `vertex_indices` (or `vertex_index`);
 /// polygons are fanned from their first corner, as Mitsuba does.
 pub(super) fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
     use ply_rs_bw::parser::Parser;
@@ -44,6 +47,15 @@ pub(super) fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
         .map(|v| Some(DVec3::new(scalar(v, "nx")?, scalar(v, "ny")?, scalar(v, "nz")?)))
         .collect::<Option<Vec<_>>>()
         .filter(|n| !n.is_empty());
+    let uvs = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")]
+        .iter()
+        .find_map(|(ku, kv)| {
+            vertices
+                .iter()
+                .map(|v| Some(DVec2::new(scalar(v, ku)?, scalar(v, kv)?)))
+                .collect::<Option<Vec<_>>>()
+                .filter(|uv| !uv.is_empty())
+        });
     let mut triangles = Vec::with_capacity(faces.len());
     for (i, f) in faces.iter().enumerate() {
         let list = f.get("vertex_indices").or_else(|| f.get("vertex_index"));
@@ -73,6 +85,7 @@ pub(super) fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
         name: String::new(),
         positions,
         normals,
+        uvs,
         triangles,
     })
 }
@@ -163,9 +176,17 @@ pub(super) fn parse_serialized(bytes: &[u8], shape_index: u32) -> Result<(TriMes
     } else {
         None
     };
-    if flags & HAS_TEXCOORDS != 0 {
-        reals(vertices * 2)?;
-    }
+    // Mitsuba keeps a .serialized file's v as it is.
+    let uvs = if flags & HAS_TEXCOORDS != 0 {
+        Some(
+            reals(vertices * 2)?
+                .chunks_exact(2)
+                .map(|c| DVec2::new(c[0], c[1]))
+                .collect(),
+        )
+    } else {
+        None
+    };
     if flags & HAS_COLORS != 0 {
         reals(vertices * 3)?;
     }
@@ -194,6 +215,7 @@ pub(super) fn parse_serialized(bytes: &[u8], shape_index: u32) -> Result<(TriMes
             name,
             positions,
             normals,
+            uvs,
             triangles: tris,
         },
         flags & FACE_NORMALS != 0,

@@ -28,6 +28,7 @@ mod rough;
 pub(crate) use rough::PLASTIC_DEFAULT_IOR;
 #[cfg(test)]
 mod tests;
+mod textures;
 mod transform;
 mod user_paths;
 mod validate;
@@ -218,7 +219,10 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         b.hashed.push(format!("param {name}={value}").into_bytes());
     }
     let camera = camera(&ctx, &desc.camera)?;
-    let (materials, material_index) = materials(&ctx, &desc.materials)?;
+    let mut textures = textures::Textures::new(&b.dir);
+    let (materials, material_index) = materials(&ctx, &desc.materials, &mut textures)?;
+    b.hashed.append(&mut textures.hashed);
+    b.stats.files_read.append(&mut textures.files_read);
     for (i, shape) in desc.shapes.iter().enumerate() {
         let field = match &shape_labels {
             Some(labels) => labels[i].clone(),

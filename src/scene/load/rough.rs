@@ -1,10 +1,11 @@
 //! The metals and microfacet materials of Mitsuba 3 (`conductor`, `rough_conductor`,
 //! `rough_dielectric`, `rough_plastic`): their fields checked one by one and the models built.
 
+use super::textures::Textures;
 use super::*;
 use crate::bsdf::{
-    Bsdf, Conductor, ConductorIor, Microfacet, MicrofacetType, RoughConductor, RoughDielectric, RoughPlastic,
-    named_conductor_list,
+    Bsdf, ColorParam, Conductor, ConductorIor, Microfacet, MicrofacetType, RoughConductor, RoughDielectric,
+    RoughPlastic, named_conductor_list,
 };
 use crate::error::Result;
 use crate::scene::desc::{self, Roughness, Triple};
@@ -149,7 +150,7 @@ pub(super) fn rough_dielectric(ctx: &Ctx, field: &str, m: &desc::RoughDielectric
     }))
 }
 
-pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic) -> Result<Bsdf> {
+pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic, textures: &mut Textures) -> Result<Bsdf> {
     let f = |key: &str| format!("{field}.{key}");
     let distribution = microfacet(ctx, field, &m.roughness())?;
     if !distribution.is_isotropic() {
@@ -158,8 +159,8 @@ pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic) -> R
             "rough_plastic is isotropic (as in Mitsuba): give alpha, not different alpha_u and alpha_v",
         ));
     }
-    let diffuse = match m.diffuse_reflectance {
-        Some(v) => rgb(ctx.unit_rgb(&f("diffuse_reflectance"), v)?),
+    let diffuse = match &m.diffuse_reflectance {
+        Some(c) => textures.unit_color(ctx, &f("diffuse_reflectance"), c, ColorParam::DiffuseReflectance)?,
         None => Vec3::splat(0.5),
     };
     Ok(Bsdf::RoughPlastic(RoughPlastic::new(

@@ -241,7 +241,9 @@ fn the_documented_example_loads() {
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 12);
+    assert_eq!(scene.materials.len(), 13);
+    let floor = scene.materials.iter().find(|m| m.name == "floor").unwrap();
+    assert_eq!(floor.textures.len(), 1, "the checkerboard floor is textured");
     assert_eq!(stats.spheres, 1);
     // Two quads (the second with `subdivide = 4`), a box with `subdivide = 2`, a triangle.
     assert_eq!(stats.triangles, 2 + 2 * 4 * 4 + 12 * 2 * 2 + 1);

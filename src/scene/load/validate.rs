@@ -2,8 +2,9 @@
 //! materials (BSDFs built and checked), each error one line naming the field.
 
 use super::rough;
+use super::textures::Textures;
 use super::*;
-use crate::bsdf::{Bsdf, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
+use crate::bsdf::{Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::resources::{check_memory, film_bytes, memory_limit};
@@ -179,9 +180,11 @@ pub(super) fn camera(ctx: &Ctx, c: &desc::CameraDesc) -> Result<Camera> {
 }
 
 /// Validates every material and builds them in name order; returns the name → index map.
+/// Image files for textures are read through `textures`, which keeps their bytes for the hash.
 pub(super) fn materials(
     ctx: &Ctx,
     descs: &BTreeMap<String, MaterialDesc>,
+    textures: &mut Textures,
 ) -> Result<(Vec<Material>, BTreeMap<String, u32>)> {
     let mut out = Vec::with_capacity(descs.len());
     let mut index = BTreeMap::new();
@@ -189,9 +192,11 @@ pub(super) fn materials(
         let field = format!("materials.{}", key_string(name));
         validate_material(ctx, &field, d)?;
         index.insert(name.clone(), out.len() as u32);
+        let bsdf = make_bsdf(ctx, &field, d, textures)?;
         out.push(Material {
             name: name.clone(),
-            bsdf: make_bsdf(ctx, &field, d)?,
+            bsdf,
+            textures: std::mem::take(&mut textures.params),
         });
     }
     Ok((out, index))
@@ -210,9 +215,8 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
         }
     };
     match d {
-        MaterialDesc::Diffuse(m) => {
-            ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
-        }
+        // Checked while built, textures included (`make_bsdf`).
+        MaterialDesc::Diffuse(_) => {}
         MaterialDesc::Mirror(m) => {
             ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
         }
@@ -279,10 +283,15 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
 
 /// Turns a validated material description into its reflectance model: the one place that
 /// knows both the file's material types and the [`Bsdf`] variants.
-pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Result<Bsdf> {
+pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut Textures) -> Result<Bsdf> {
     let bsdf = match d {
         MaterialDesc::Diffuse(m) => Bsdf::Lambertian(Lambertian {
-            reflectance: rgb(m.reflectance),
+            reflectance: textures.unit_color(
+                ctx,
+                &format!("{field}.reflectance"),
+                &m.reflectance,
+                ColorParam::Reflectance,
+            )?,
         }),
         MaterialDesc::Mirror(m) => Bsdf::Mirror(Mirror {
             reflectance: rgb(m.reflectance),
@@ -311,8 +320,10 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Result<Bsdf
         MaterialDesc::Conductor(m) => rough::conductor(ctx, field, m)?,
         MaterialDesc::RoughConductor(m) => rough::rough_conductor(ctx, field, m)?,
         MaterialDesc::RoughDielectric(m) => rough::rough_dielectric(ctx, field, m)?,
-        MaterialDesc::RoughPlastic(m) => rough::rough_plastic(ctx, field, m)?,
-        MaterialDesc::OneSided(m) => Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf)?)),
+        MaterialDesc::RoughPlastic(m) => rough::rough_plastic(ctx, field, m, textures)?,
+        MaterialDesc::OneSided(m) => {
+            Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?))
+        }
     };
     // The description was validated field by field; this is the models' own check, kept as a
     // second line of defence (f64 → f32 rounding could tip a sum over 1).

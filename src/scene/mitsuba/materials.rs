@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::error::Result;
-use crate::scene::desc::{self, Fixed, MaterialDesc, Roughness};
+use crate::scene::desc::{self, Color, Fixed, MaterialDesc, Roughness};
 use roxmltree::Node;
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -50,7 +50,9 @@ impl<'a, 'i> Reader<'a, 'i> {
         let mut o = self.obj(n)?;
         let m = match kind.as_str() {
             "diffuse" => MaterialDesc::Diffuse(desc::Diffuse {
-                reflectance: self.colour(&mut o, "reflectance")?.unwrap_or(Fixed([0.5; 3])),
+                reflectance: self
+                    .texture_colour(&mut o, "reflectance")?
+                    .unwrap_or(Color::Rgb(Fixed([0.5; 3]))),
             }),
             "conductor" | "roughconductor" => {
                 let c = self.conductor(&mut o)?;
@@ -96,7 +98,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
                 let r = self.roughness(&mut o)?;
                 MaterialDesc::RoughPlastic(desc::RoughPlastic {
-                    diffuse_reflectance: self.colour(&mut o, "diffuse_reflectance")?,
+                    diffuse_reflectance: self.texture_colour(&mut o, "diffuse_reflectance")?,
                     specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
                     ior: Some(int_ior / ext_ior),
                     nonlinear: self.boolean(&mut o, "nonlinear")?,

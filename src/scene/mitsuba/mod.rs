@@ -39,7 +39,10 @@
 //! constant spectrum), wavelength:value pairs in `value` or in a `filename` (`.spd`: a pair per
 //! line), or `type="blackbody"` with a `temperature` (emitters only), converted to RGB as
 //! Mitsuba 3's RGB variants convert them ([`crate::spectrum`]: reflectances D65-weighted and
-//! clamped to [0, 1], emission neither). Textures are errors. Lengths keep their units.
+//! clamped to [0, 1], emission neither). Colours of `diffuse` (`reflectance`) and `roughplastic`
+//! (`diffuse_reflectance`) may be `checkerboard` or `bitmap` textures, nested or named
+//! (`<ref name="reflectance" id="…"/>` to a top-level `<texture id>`), with a `to_uv` transform;
+//! other textured parameters are errors. Lengths keep their units.
 //!
 //! **Transforms.** The operations inside `<transform name="to_world">` apply in document order,
 //! each after the ones before (`M = op · M`): `translate` (`x`, `y`, `z` or `value`),
@@ -58,13 +61,14 @@
 //! same form and are printed by [`super::load_scene`].
 //!
 //! Files: this one (the reader and the `<scene>` element), [`values`] (properties, colours,
-//! transforms), [`sensor`] (sensor and film), [`materials`] (BSDFs), [`shapes`] (shapes and area
-//! emitters). The importer produces a [`super::desc::SceneDesc`] and never calls the loader, which
+//! transforms), [`sensor`] (sensor and film), [`materials`] (BSDFs), [`textures`] (textures),
+//! [`shapes`] (shapes and area emitters). The importer produces a [`super::desc::SceneDesc`] and never calls the loader, which
 //! validates it like any TOML scene; writing XML lives in [`super::export`].
 
 mod materials;
 mod sensor;
 mod shapes;
+mod textures;
 mod values;
 
 use values::matrix_step;
@@ -176,6 +180,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
         materials: BTreeMap::new(),
         bsdf_ids: BTreeMap::new(),
         emitter_ids: BTreeMap::new(),
+        texture_ids: BTreeMap::new(),
     };
     let imported = r.scene(doc.root_element())?;
     if let Some((name, _)) = params.iter().find(|(name, _)| !used.borrow().contains(name)) {
@@ -226,6 +231,8 @@ struct Reader<'a, 'i> {
     bsdf_ids: BTreeMap<String, String>,
     /// Each top-level `<emitter type="area" id>`, for shapes to `<ref>`.
     emitter_ids: BTreeMap<String, crate::scene::desc::EmissionDesc>,
+    /// Each top-level `<texture id>`, for BSDFs to `<ref>`.
+    texture_ids: BTreeMap<String, crate::scene::desc::TextureDesc>,
 }
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -395,8 +402,17 @@ impl<'a, 'i> Reader<'a, 'i> {
             self.defaults.entry(name).or_insert(value);
         }
         let elements: Vec<Node> = root.children().filter(Node::is_element).collect();
-        // Named BSDFs and area emitters first, so that a <ref> may precede the definition it
-        // names.
+        // Named textures, BSDFs and area emitters first, so that a <ref> may precede the
+        // definition it names.
+        for &n in elements.iter().filter(|n| n.has_tag_name("texture")) {
+            let Some(id) = self.attr(n, "id")? else {
+                return Err(self.err(n, "a top-level <texture> needs an `id` for BSDFs to <ref> it"));
+            };
+            let t = self.texture(n)?;
+            if self.texture_ids.insert(id.clone(), t).is_some() {
+                return Err(self.err(n, format!("id {id:?} is used twice")));
+            }
+        }
         for &n in &elements {
             if n.has_tag_name("emitter") && n.attribute("type") == Some("area") {
                 let Some(id) = self.attr(n, "id")? else {
@@ -429,7 +445,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         for &n in &elements {
             match n.tag_name().name() {
-                "default" | "bsdf" => {}
+                "default" | "bsdf" | "texture" => {}
                 "include" => self.include(n, parts)?,
                 "path" => {
                     let value = self.required(n, "value")?;
@@ -462,7 +478,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     return Err(self.err(
                         n,
                         format!(
-                            "unsupported element <{other}> (photon-bench reads default, include, path, sensor, bsdf, shape, integrator and sampler)"
+                            "unsupported element <{other}> (photon-bench reads default, include, path, sensor, bsdf, texture, shape, integrator and sampler)"
                         ),
                     ));
                 }
@@ -517,6 +533,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             materials: std::mem::take(&mut self.materials),
             bsdf_ids: std::mem::take(&mut self.bsdf_ids),
             emitter_ids: std::mem::take(&mut self.emitter_ids),
+            texture_ids: std::mem::take(&mut self.texture_ids),
         };
         let read = inner.scene_elements(doc.root_element(), parts);
         self.defaults = inner.defaults;
@@ -524,6 +541,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         self.materials = inner.materials;
         self.bsdf_ids = inner.bsdf_ids;
         self.emitter_ids = inner.emitter_ids;
+        self.texture_ids = inner.texture_ids;
         self.including = inner.including;
         self.including.pop();
         read?;

@@ -66,17 +66,24 @@ impl<'a, 'i> Reader<'a, 'i> {
         let material = match material {
             Some(m) => m,
             None => {
-                // Mitsuba gives a shape without a BSDF a one-sided diffuse 0.5.
-                let name = "mitsuba-default".to_string();
+                // Mitsuba gives a shape without a BSDF a one-sided diffuse: black on an emitter
+                // (it only emits), 0.5 elsewhere.
+                let (name, albedo) = if emission.is_some() {
+                    ("mitsuba-default-emitter", 0.0)
+                } else {
+                    ("mitsuba-default", 0.5)
+                };
                 self.materials
-                    .entry(name.clone())
+                    .entry(name.to_string())
                     .or_insert(MaterialDesc::OneSided(desc::OneSided {
                         bsdf: Box::new(MaterialDesc::Diffuse(desc::Diffuse {
-                            reflectance: Fixed([0.5; 3]),
+                            reflectance: Fixed([albedo; 3]).into(),
                         })),
                     }));
-                self.warn(n, "no BSDF: Mitsuba's default, a one-sided diffuse 0.5");
-                name
+                if emission.is_none() {
+                    self.warn(n, "no BSDF: Mitsuba's default, a one-sided diffuse 0.5");
+                }
+                name.to_string()
             }
         };
         let shape = match kind.as_str() {
@@ -130,17 +137,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 if !file.to_ascii_lowercase().ends_with(&expected) {
                     return Err(self.err(p, format!("filename: a {kind} shape needs a file ending in {expected}")));
                 }
-                // The loader reads meshes relative to the scene file's directory: a mesh found
-                // elsewhere (a `<path>` directory, an included file's directory) is named by its
-                // absolute path.
-                let file = if self.including.len() == 1 && path == self.dir.join(&file) {
-                    file
-                } else {
-                    std::fs::canonicalize(&path)
-                        .map_err(|e| self.err(p, format!("filename: cannot resolve {}: {e}", path.display())))?
-                        .display()
-                        .to_string()
-                };
+                let file = self.loader_path(p, &file, &path)?;
                 // A file without normals is shaded smooth, as Mitsuba recomputes them, unless
                 // the scene asks for face normals.
                 ShapeDesc::Mesh(desc::Mesh {
@@ -162,6 +159,19 @@ impl<'a, 'i> Reader<'a, 'i> {
         };
         self.finish(&o)?;
         Ok(shape)
+    }
+
+    /// A file as the loader will read it: relative to the scene file's directory, so a file
+    /// found elsewhere (a `<path>` directory, an included file's directory) is named by its
+    /// absolute path.
+    pub(super) fn loader_path(&self, p: Node, file: &str, path: &std::path::Path) -> Result<String> {
+        if self.including.len() == 1 && path == self.dir.join(file) {
+            return Ok(file.to_string());
+        }
+        Ok(std::fs::canonicalize(path)
+            .map_err(|e| self.err(p, format!("filename: cannot resolve {}: {e}", path.display())))?
+            .display()
+            .to_string())
     }
 
     pub(super) fn area(&mut self, n: Node<'a, 'i>) -> Result<desc::EmissionDesc> {

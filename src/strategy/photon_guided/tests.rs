@@ -36,6 +36,7 @@ fn glossy_vertex() -> (KdTree<GuidePhoton>, SurfaceHit, Bsdf, Vec3) {
         frame: Frame::from_normal(Vec3::Z),
         prim: 0,
         material: 0,
+        bary: glam::Vec2::ZERO,
     };
     let bsdf = Bsdf::Phong(Phong {
         diffuse: Vec3::splat(0.3),
@@ -92,6 +93,7 @@ fn hit_at(p: Vec3, frame: Frame) -> SurfaceHit {
         frame,
         prim: 0,
         material: 0,
+        bary: glam::Vec2::ZERO,
     }
 }
 

@@ -60,7 +60,7 @@ impl PhotonMapStrategy {
                 .par_iter()
                 .map(|h| {
                     h.as_ref()
-                        .map_or(Vec3::ZERO, |(hit, beta, wo)| *beta * f(hit, scene.bsdf(hit), *wo))
+                        .map_or(Vec3::ZERO, |(hit, beta, wo)| *beta * f(hit, &scene.bsdf(hit), *wo))
                 })
                 .collect(),
         };

@@ -43,13 +43,13 @@ impl Renderer<'_> {
             let bsdf = scene.bsdf(&hit);
             let wo = hit.frame.to_local(-ray.d);
             if !bsdf.is_delta() {
-                l += beta * self.shade(&hit, bsdf, -ray.d, true, rng, c);
+                l += beta * self.shade(&hit, &bsdf, -ray.d, true, rng, c);
                 break;
             }
             if depth >= self.params.max_depth {
                 break;
             }
-            let Some((next, weight)) = delta_bounce(&hit, bsdf, wo, rng) else {
+            let Some((next, weight)) = delta_bounce(&hit, &bsdf, wo, rng) else {
                 break;
             };
             beta *= weight;
@@ -185,9 +185,9 @@ impl Renderer<'_> {
                 let maps = self.maps;
                 if primary && distance < maps.short_gather && self.params.secondary_gather_rays > 0 {
                     c.secondary_gathers += 1;
-                    return l + beta * self.shade(&hit, bsdf, wo_world, false, rng, c);
+                    return l + beta * self.shade(&hit, &bsdf, wo_world, false, rng, c);
                 }
-                return l + beta * self.lookup(&hit, bsdf, wo_world, c);
+                return l + beta * self.lookup(&hit, &bsdf, wo_world, c);
             }
             if depth >= self.params.max_depth {
                 return l;
@@ -198,10 +198,10 @@ impl Renderer<'_> {
             // method traces glossy reflections with Monte Carlo ray tracing, instead of reading
             // an empty map there.
             let step = if kind == SurfaceKind::Specular {
-                delta_bounce(&hit, bsdf, wo, rng)
+                delta_bounce(&hit, &bsdf, wo, rng)
             } else {
                 through_glossy = true;
-                glossy_bounce(&hit, bsdf, wo, rng)
+                glossy_bounce(&hit, &bsdf, wo, rng)
             };
             let Some((next, weight)) = step else {
                 return l;
@@ -244,7 +244,7 @@ impl Renderer<'_> {
             if !bsdf.is_delta() {
                 return Some((hit, beta, -ray.d));
             }
-            let (next, weight) = delta_bounce(&hit, bsdf, hit.frame.to_local(-ray.d), rng)?;
+            let (next, weight) = delta_bounce(&hit, &bsdf, hit.frame.to_local(-ray.d), rng)?;
             beta *= weight;
             ray = next;
         }

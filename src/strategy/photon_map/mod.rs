@@ -426,7 +426,7 @@ impl PhotonMapStrategy {
             params: &self.params,
             maps,
         };
-        Some(r.lookup(hit, scene.bsdf(hit), wo, &mut PhotonMapCounters::default()))
+        Some(r.lookup(hit, &scene.bsdf(hit), wo, &mut PhotonMapCounters::default()))
     }
 
     pub fn render_maps(&self, scene: &Scene, seed: u64, samples: std::ops::Range<u32>, film: &mut Film) {

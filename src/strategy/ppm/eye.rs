@@ -99,12 +99,12 @@ pub fn sample_direct(scene: &Scene, path: &EyePath, rng: &mut Rng) -> Vec3 {
     for v in &path.nee {
         let bsdf = scene.bsdf(&v.hit);
         let mut weights = None;
-        let context = lights.at(scene, v.hit.p, || receiver(&v.hit, bsdf, v.wo), &mut weights);
+        let context = lights.at(scene, v.hit.p, || receiver(&v.hit, &bsdf, v.wo), &mut weights);
         l += v.beta
             * estimate_direct(
                 scene,
                 &v.hit,
-                bsdf,
+                &bsdf,
                 v.wo,
                 rng,
                 Direct::Nee,

@@ -1,0 +1,185 @@
+//! Colour parameters that may be textures: each checked (every texel a reflectance in [0, 1]),
+//! image files read once per scene and entered into the content hash.
+
+use super::mesh::read_regular_file;
+use super::*;
+use crate::bsdf::ColorParam;
+use crate::error::Result;
+use crate::scene::desc::{BitmapDesc, CheckerboardDesc, Color, TextureDesc, UvTransformDesc};
+use crate::texture::{Bitmap, Checkerboard, Filter, Texture, UvTransform, Wrap, decode_image};
+use glam::{Vec2, Vec3};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Largest image accepted as a texture, in texels (a 16k × 16k picture).
+const MAX_TEXELS: u64 = 1 << 28;
+
+/// A decoded image: width, height, linear texels.
+type Decoded = (u32, u32, Arc<[Vec3]>);
+
+/// The textures of the material being built, and every image file the scene's materials read.
+pub(super) struct Textures<'a> {
+    /// Directory of the scene file: relative image paths start here.
+    pub(super) dir: &'a std::path::Path,
+    /// The current material's textured parameters.
+    pub(super) params: Vec<(ColorParam, Texture)>,
+    /// Images by (path, raw), decoded once however many materials use them.
+    images: BTreeMap<(PathBuf, bool), Decoded>,
+    /// Bytes of every image read, in reading order, for the content hash.
+    pub(super) hashed: Vec<Vec<u8>>,
+    pub(super) files_read: Vec<PathBuf>,
+}
+
+impl<'a> Textures<'a> {
+    pub(super) fn new(dir: &'a std::path::Path) -> Self {
+        Self {
+            dir,
+            params: Vec::new(),
+            images: BTreeMap::new(),
+            hashed: Vec::new(),
+            files_read: Vec::new(),
+        }
+    }
+
+    /// A reflectance-like colour, `param` of the model: an RGB triple with every channel in
+    /// [0, 1], or a texture whose every value is. Returns the value the model is built with: the
+    /// colour, or the texture's per-channel maximum (the texture itself is remembered for
+    /// `param`).
+    pub(super) fn unit_color(&mut self, ctx: &Ctx, field: &str, c: &Color, param: ColorParam) -> Result<Vec3> {
+        let texture = match c {
+            Color::Rgb(v) => return Ok(rgb(ctx.unit_rgb(field, *v)?)),
+            Color::Texture(t) => self.texture(ctx, field, t)?,
+        };
+        let (lo, hi) = (texture.min(), texture.max());
+        if lo.min_element() < 0.0 || hi.max_element() > 1.0 || !(lo.is_finite() && hi.is_finite()) {
+            return Err(ctx.err(
+                field,
+                format!(
+                    "expected every texture value in [0, 1] (a reflectance), got values from {} to {}",
+                    triple(lo.as_dvec3().to_array()),
+                    triple(hi.as_dvec3().to_array())
+                ),
+            ));
+        }
+        self.params.push((param, texture));
+        Ok(hi)
+    }
+
+    fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {
+        match t {
+            TextureDesc::Checkerboard(c) => checkerboard(ctx, field, c),
+            TextureDesc::Bitmap(b) => self.bitmap(ctx, field, b),
+        }
+    }
+
+    fn bitmap(&mut self, ctx: &Ctx, field: &str, b: &BitmapDesc) -> Result<Texture> {
+        let f = |key: &str| format!("{field}.{key}");
+        let filter = match b.filter.as_deref() {
+            None | Some("bilinear") => Filter::Bilinear,
+            Some("nearest") => Filter::Nearest,
+            Some(other) => {
+                return Err(ctx.err(
+                    &f("filter"),
+                    format!("expected \"bilinear\" or \"nearest\", got {other:?}"),
+                ));
+            }
+        };
+        let wrap = match b.wrap.as_deref() {
+            None | Some("repeat") => Wrap::Repeat,
+            Some("mirror") => Wrap::Mirror,
+            Some("clamp") => Wrap::Clamp,
+            Some(other) => {
+                return Err(ctx.err(
+                    &f("wrap"),
+                    format!("expected \"repeat\", \"mirror\" or \"clamp\", got {other:?}"),
+                ));
+            }
+        };
+        let raw = b.raw.unwrap_or(false);
+        let path = self.dir.join(&b.file);
+        let image = match self.images.get(&(path.clone(), raw)) {
+            Some(image) => image.clone(),
+            None => {
+                let shown = path.display().to_string();
+                let bytes =
+                    read_regular_file(&path).map_err(|e| ctx.err(&f("file"), format!("cannot read {shown}: {e}")))?;
+                let (w, h, texels) =
+                    decode_image(&bytes, raw).map_err(|e| ctx.err(&f("file"), format!("{shown}: {e}")))?;
+                if u64::from(w) * u64::from(h) > MAX_TEXELS {
+                    return Err(ctx.err(
+                        &f("file"),
+                        format!("{shown}: {w} × {h} texels exceeds the limit of {MAX_TEXELS}"),
+                    ));
+                }
+                self.hashed.push(bytes);
+                self.files_read.push(path.clone());
+                let image = (w, h, Arc::from(texels));
+                self.images.insert((path, raw), image.clone());
+                image
+            }
+        };
+        let (width, height, texels) = image;
+        Ok(Texture::Bitmap(Bitmap {
+            width,
+            height,
+            texels,
+            filter,
+            wrap,
+            to_uv: uv_transform(ctx, &f("to_uv"), b.to_uv.as_ref())?,
+        }))
+    }
+}
+
+fn checkerboard(ctx: &Ctx, field: &str, c: &CheckerboardDesc) -> Result<Texture> {
+    let f = |key: &str| format!("{field}.{key}");
+    let colour = |key: &str, v: Option<desc::Triple>, default: f64| -> Result<Vec3> {
+        let v = v.unwrap_or(desc::Fixed([default; 3]));
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(rgb(v))
+        } else {
+            Err(ctx.err(&f(key), format!("expected finite numbers, got {}", triple(v))))
+        }
+    };
+    Ok(Texture::Checkerboard(Checkerboard {
+        color0: colour("color0", c.color0, 0.4)?,
+        color1: colour("color1", c.color1, 0.2)?,
+        to_uv: uv_transform(ctx, &f("to_uv"), c.to_uv.as_ref())?,
+    }))
+}
+
+fn uv_transform(ctx: &Ctx, field: &str, t: Option<&UvTransformDesc>) -> Result<UvTransform> {
+    let Some(t) = t else {
+        return Ok(UvTransform::default());
+    };
+    let finite = |key: &str, v: &[f64]| -> Result<()> {
+        if v.iter().all(|x| x.is_finite() && x.abs() <= 1e7) {
+            Ok(())
+        } else {
+            Err(ctx.err(
+                &format!("{field}.{key}"),
+                "expected finite numbers of magnitude at most 1e7",
+            ))
+        }
+    };
+    match (t.matrix, t.scale, t.offset) {
+        (Some(m), None, None) => {
+            let rows = [m[0].0, m[1].0];
+            finite("matrix", &rows.concat())?;
+            Ok(UvTransform {
+                rows: rows.map(|r| r.map(|x| x as f32)),
+            })
+        }
+        (Some(_), _, _) => Err(ctx.err(field, "give either a matrix or scale and offset, not both")),
+        (None, scale, offset) => {
+            let scale = scale.map_or([1.0; 2], |s| s.0);
+            let offset = offset.map_or([0.0; 2], |o| o.0);
+            finite("scale", &scale)?;
+            finite("offset", &offset)?;
+            Ok(UvTransform::scale_offset(
+                Vec2::new(scale[0] as f32, scale[1] as f32),
+                Vec2::new(offset[0] as f32, offset[1] as f32),
+            ))
+        }
+    }
+}
