@@ -5,6 +5,7 @@
     python3 -m pip install mitsuba==3.9.1 numpy
     python3 scripts/corpus_mitsuba.py scenes/mitsuba                 # the shipped corpus (CI)
     python3 scripts/corpus_mitsuba.py DIR --report corpus.md         # any directory of scenes
+    python3 scripts/corpus_mitsuba.py mitsuba-data/docs/scenes --merge mitsuba-data/common
 
 For each `*.xml` directly in DIR (files that are not a `<scene>` are skipped; included files
 usually live in a subdirectory): our importer either refuses the scene — reported with its
@@ -128,6 +129,13 @@ def main():
     ap.add_argument("--only", nargs="*", help="scene file names to run (default: all)")
     ap.add_argument("--report", help="also write the table as Markdown to this file")
     ap.add_argument("--bench", default="target/release/bench")
+    ap.add_argument(
+        "--merge",
+        action="append",
+        default=[],
+        help="a directory whose contents are copied into the scene directory's copy (repeatable): "
+        "Mitsuba's documentation scenes find their meshes and textures in mitsuba-data/common",
+    )
     args = ap.parse_args()
     bench = os.path.abspath(args.bench)
 
@@ -146,6 +154,8 @@ def main():
         base = os.path.join(tmp, "copy")
         replaced = prepare(top, base, args.size)
         copied_dir = os.path.join(base, os.path.relpath(src, top))
+        for extra in args.merge:
+            shutil.copytree(os.path.abspath(extra), copied_dir, dirs_exist_ok=True)
         names = sorted(f for f in os.listdir(copied_dir) if f.endswith(".xml"))
         if args.only:
             names = [n for n in names if n in args.only]

@@ -385,8 +385,8 @@ fn bad_xml_is_refused_naming_the_element() {
             &["<shape type=\"disk\">", "unsupported shape"],
         ),
         (
-            scene_xml(&format!("{LIGHT}<emitter type=\"constant\"/>")),
-            &["<emitter type=\"constant\">", "area"],
+            scene_xml(&format!("{LIGHT}<emitter type=\"projector\"/>")),
+            &["<emitter type=\"projector\">", "unsupported emitter"],
         ),
         (
             scene_xml(&format!("{LIGHT}<texture type=\"bitmap\" id=\"t\"/>")),
@@ -399,10 +399,8 @@ fn bad_xml_is_refused_naming_the_element() {
             &["<float name=\"roughness\">", "unsupported property"],
         ),
         (
-            scene_xml(&format!(
-                "{LIGHT}<shape type=\"sphere\"><bsdf type=\"plastic\"/></shape>"
-            )),
-            &["<bsdf type=\"plastic\">", "unsupported BSDF"],
+            scene_xml(&format!("{LIGHT}<shape type=\"sphere\"><bsdf type=\"hair\"/></shape>")),
+            &["<bsdf type=\"hair\">", "unsupported BSDF"],
         ),
         (
             scene_xml(&format!(

@@ -47,6 +47,7 @@ mod microfacet;
 mod mirror;
 pub mod named_conductors;
 mod phong;
+mod plastic;
 mod rough_dielectric;
 mod rough_plastic;
 mod thin_dielectric;
@@ -64,6 +65,7 @@ pub use lambertian::Lambertian;
 pub use microfacet::{MIN_ALPHA, Microfacet, MicrofacetType};
 pub use mirror::Mirror;
 pub use phong::Phong;
+pub use plastic::{Plastic, fresnel_diffuse_reflectance};
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
 pub use thin_dielectric::ThinDielectric;
@@ -117,6 +119,8 @@ pub enum Bsdf {
     RoughConductor(RoughConductor),
     RoughDielectric(RoughDielectric),
     RoughPlastic(RoughPlastic),
+    /// A delta lobe (the coating) over a diffuse one (the base): [`Bsdf::mixes_delta`].
+    Plastic(Plastic),
     /// A reflection model that is black when seen from behind (`wo` or `wi` below the shading
     /// plane): Mitsuba 3's sidedness for a BSDF without its `twosided` wrapper.
     OneSided(Box<Bsdf>),
@@ -197,6 +201,7 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.eval(wo, wi),
             Bsdf::RoughDielectric(b) => b.eval(wo, wi, mode),
             Bsdf::RoughPlastic(b) => b.eval(wo, wi),
+            Bsdf::Plastic(b) => b.eval(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.eval(wo, wi, mode),
             Bsdf::OneSided(_) => Vec3::ZERO,
         }
@@ -214,6 +219,7 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.pdf(wo, wi),
             Bsdf::RoughDielectric(b) => b.pdf(wo, wi),
             Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
+            Bsdf::Plastic(b) => b.pdf(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.pdf(wo, wi),
             Bsdf::OneSided(_) => 0.0,
         }
@@ -234,6 +240,7 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.sample(wo, u),
             Bsdf::RoughDielectric(b) => b.sample(wo, u, u_lobe, mode),
             Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
+            Bsdf::Plastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::OneSided(b) if wo.z > 0.0 => b.sample(wo, u, u_lobe, mode).filter(|s| s.wi.z > 0.0),
             Bsdf::OneSided(_) => None,
         }
@@ -262,6 +269,8 @@ impl Bsdf {
             (Bsdf::Mirror(b), Reflectance) => &mut b.reflectance,
             (Bsdf::RoughPlastic(b), DiffuseReflectance) => &mut b.diffuse_reflectance,
             (Bsdf::RoughPlastic(b), SpecularReflectance) => &mut b.specular_reflectance,
+            (Bsdf::Plastic(b), DiffuseReflectance) => &mut b.diffuse_reflectance,
+            (Bsdf::Plastic(b), SpecularReflectance) => &mut b.specular_reflectance,
             (Bsdf::Conductor(b), SpecularReflectance) => &mut b.ior.specular_reflectance,
             (Bsdf::RoughConductor(b), SpecularReflectance) => &mut b.ior.specular_reflectance,
             (Bsdf::RoughDielectric(b), SpecularReflectance) => &mut b.specular_reflectance,
@@ -282,6 +291,8 @@ impl Bsdf {
             Bsdf::Phong(b) if has_energy(b.diffuse) => SurfaceKind::Diffuse,
             Bsdf::Ward(b) if has_energy(b.diffuse) => SurfaceKind::Diffuse,
             Bsdf::RoughPlastic(b) if has_energy(b.diffuse_reflectance) => SurfaceKind::Diffuse,
+            Bsdf::Plastic(b) if has_energy(b.diffuse_reflectance) => SurfaceKind::Diffuse,
+            Bsdf::Plastic(_) => SurfaceKind::Specular,
             Bsdf::Phong(_) | Bsdf::Ward(_) | Bsdf::RoughPlastic(_) => SurfaceKind::Glossy,
             Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) => SurfaceKind::Glossy,
         }
@@ -296,6 +307,18 @@ impl Bsdf {
             self,
             Bsdf::DiffuseTransmission(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::RoughDielectric(_)
         )
+    }
+
+    /// True when the model has a delta lobe beside a non-delta one (smooth plastic): its
+    /// samples are delta or not one by one ([`BsdfSample::delta`]), while [`Bsdf::is_delta`] is
+    /// false. Strategies that class vertices by their surface rather than by their sample
+    /// refuse such scenes ([`crate::strategy::check_scene`]).
+    pub fn mixes_delta(&self) -> bool {
+        match self {
+            Bsdf::OneSided(b) => b.mixes_delta(),
+            Bsdf::Plastic(b) => has_energy(b.diffuse_reflectance),
+            _ => false,
+        }
     }
 
     /// True when every lobe is a delta distribution (no light sampling is useful here).
@@ -321,6 +344,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.specular_reflectance.max(b.specular_transmittance),
             // The coating splits light between the two lobes: T ρ + (1 − T) R_s ≤ max(ρ, R_s).
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
+            Bsdf::Plastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
             Bsdf::OneSided(b) => b.albedo(),
         }
     }
@@ -424,6 +448,11 @@ impl Bsdf {
                 unit("diffuse_reflectance", b.diffuse_reflectance)?;
                 unit("specular_reflectance", b.specular_reflectance)?;
                 b.distribution.validate()
+            }
+            Bsdf::Plastic(b) => {
+                positive("ior", b.ior)?;
+                unit("diffuse_reflectance", b.diffuse_reflectance)?;
+                unit("specular_reflectance", b.specular_reflectance)
             }
             Bsdf::OneSided(b) if b.is_transmissive() || matches!(**b, Bsdf::OneSided(_)) => Err(Error::new(
                 "one_sided wraps a reflecting model (not a transmitting one, nor another one_sided)",

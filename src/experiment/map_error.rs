@@ -184,6 +184,7 @@ pub fn run(exp: &Experiment, probes: usize, probe_spp: u32, probe_seed: u64, out
         for spec in exp.strategies.iter().filter(|s| s.runs_on(scene_file)) {
             for &seed in &exp.seeds {
                 let mut strategy = spec.instantiate()?;
+                crate::strategy::check_scene(&*strategy, &scene)?;
                 let start = Instant::now();
                 strategy.prepare(&scene, seed)?;
                 let prep = start.elapsed().as_secs_f64();

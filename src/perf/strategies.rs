@@ -179,6 +179,7 @@ fn measure_cases(
 fn measure_repeat(case: &Case) -> Result<Repeat> {
     let (scene, seed) = (case.scene, 0);
     let mut strategy = (case.build)(case.params.clone())?;
+    crate::strategy::check_scene(&*strategy, scene)?;
     let start = Instant::now();
     strategy.prepare(scene, seed)?;
     let prepare_s = start.elapsed().as_secs_f64();

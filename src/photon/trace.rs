@@ -9,6 +9,14 @@
 //! emitted photon of a light starts with the same power, and the expected sum of the initial
 //! powers is exactly the total emitted power Φ.
 //!
+//! A scene's environment (light from infinitely far away) is chosen with its share of the power
+//! (`Scene::environment_power_share`, the area lights sharing the rest as above). Its photons
+//! come from a disc of the scene's bounding radius R facing a direction ω drawn from the
+//! environment's importance sampling, placed at distance R from the scene's centre toward ω,
+//! and travel along −ω [the construction of pbrt-v3's `InfiniteAreaLight::Sample_Le`]; a photon
+//! carries ΔΦ = L(ω) π R² / (p_env · p(ω) · N): parallel light through the disc, which covers
+//! the whole scene as seen from ω.
+//!
 //! **Scattering.** At each hit the BSDF is sampled with [`TransportMode::Importance`]; the
 //! photon power is multiplied by the weight w = f_s |cos θi| / p_ω (times Veach's adjoint
 //! correction for shading normals, [Veach 1997, eq. (5.19)]).
@@ -40,13 +48,14 @@
 use super::record::{Photon, flags};
 use crate::bsdf::{SurfaceKind, TransportMode};
 use crate::error::{Error, Result};
-use crate::geometry::{Frame, spawn_ray};
+use crate::geometry::{Frame, Ray, spawn_ray};
 use crate::sampling::stream;
-use crate::sampling::{Rng, sample_cosine_hemisphere};
+use crate::sampling::{Rng, sample_concentric_disk, sample_cosine_hemisphere};
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use serde::Deserialize;
+use std::f32::consts::PI;
 
 /// Where caustic (L S+ D) photons are stored.
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
@@ -236,6 +245,21 @@ pub struct TracedPath {
     pub rays: u64,
 }
 
+/// A photon from the environment (module doc): its ray, entering the scene's bounding sphere
+/// from a disc facing the sampled direction, and its power; `None` for a direction of zero
+/// density or radiance.
+fn environment_photon(scene: &Scene, p_env: f32, emitted: u64, rng: &mut Rng) -> Option<(Ray, Vec3)> {
+    let env = scene.environment.as_ref()?;
+    let s = env.sample(rng.uniform2())?;
+    let (lo, hi) = scene.bounds();
+    let (center, radius) = (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(f32::MIN_POSITIVE));
+    let disc = sample_concentric_disk(rng.uniform2()) * radius;
+    let frame = Frame::from_normal(s.wi);
+    let origin = center + radius * s.wi + frame.to_world(Vec3::new(disc.x, disc.y, 0.0));
+    let power = s.le * (PI * radius * radius / (p_env * s.pdf_w * emitted as f32));
+    (power.is_finite() && power.max_element() > 0.0).then(|| (Ray::new(origin, -s.wi), power))
+}
+
 /// Traces one photon path with the random numbers of `rng` — emission, scattering in
 /// importance mode and Russian roulette as in the module doc — as one of `emitted` photon
 /// paths (the N of ΔΦ = Φ_light / (p_light N)), and calls `store` at every hit on a surface
@@ -250,22 +274,38 @@ pub fn trace_photon_path(
 ) -> TracedPath {
     let mut out = TracedPath::default();
     // Emission: light ∝ power, point uniform, direction cosine-weighted (module doc).
-    let (light_index, pmf, _) = scene.light_selection.sample(rng.uniform());
-    let light = &scene.lights[light_index];
-    let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
-    let mut n = lp.n;
-    let u_side = rng.uniform();
-    if light.emission.two_sided && u_side < 0.5 {
-        n = -n;
-    }
-    let local = sample_cosine_hemisphere(rng.uniform2());
-    let dir = Frame::from_normal(n).to_world(local);
-    let mut power = light.power() / (pmf * emitted as f32);
+    let p_env = scene.environment_power_share;
+    let u_light = rng.uniform();
+    let (mut ray, mut power) = if p_env > 0.0 && (u_light < p_env || scene.lights.is_empty()) {
+        match environment_photon(scene, p_env, emitted, rng) {
+            Some(emission) => emission,
+            None => return out,
+        }
+    } else {
+        let u_light = if p_env > 0.0 {
+            ((u_light - p_env) / (1.0 - p_env)).min(1.0 - f32::EPSILON / 2.0)
+        } else {
+            u_light
+        };
+        let (light_index, pmf, _) = scene.light_selection.sample(u_light);
+        let pmf = if p_env > 0.0 { pmf * (1.0 - p_env) } else { pmf };
+        let light = &scene.lights[light_index];
+        let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
+        let mut n = lp.n;
+        let u_side = rng.uniform();
+        if light.emission.two_sided && u_side < 0.5 {
+            n = -n;
+        }
+        let local = sample_cosine_hemisphere(rng.uniform2());
+        let dir = Frame::from_normal(n).to_world(local);
+        let power = light.power() / (pmf * emitted as f32);
+        if local.z <= 0.0 || !power.is_finite() {
+            out.emitted_power = power;
+            return out;
+        }
+        (spawn_ray(lp.p, lp.n, dir), power)
+    };
     out.emitted_power = power;
-    if local.z <= 0.0 || !power.is_finite() {
-        return out;
-    }
-    let mut ray = spawn_ray(lp.p, lp.n, dir);
 
     // Scattering events so far, and whether all of them were on delta lobes (L S* so far).
     let mut bounces = 0u32;

@@ -22,7 +22,9 @@
 //! Reading the file back ([`super::mitsuba::import`]) gives the same scene: same triangles and spheres to
 //! float precision, same camera rays, same materials (`tests/mitsuba.rs`).
 
-use super::desc::{self, Color, Fixed, MaterialDesc, Roughness, SceneDesc, ShapeDesc, TextureDesc, Triple};
+use super::desc::{
+    self, Color, EnvironmentDesc, Fixed, MaterialDesc, Roughness, SceneDesc, ShapeDesc, TextureDesc, Triple,
+};
 use super::load::{load_scene_with_stats, quad_corner_edges, read_desc, shape_transform};
 use crate::error::{Context, Error, Result};
 use glam::{DAffine3, DMat3, DMat4, DVec3};
@@ -213,6 +215,27 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             );
         }
         let _ = writeln!(x, "    </shape>");
+    }
+    match &desc.environment {
+        None => {}
+        Some(EnvironmentDesc::Constant(c)) => {
+            let _ = writeln!(
+                x,
+                "    <emitter type=\"constant\">\n        <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>",
+                nums(&c.radiance.0)
+            );
+        }
+        Some(EnvironmentDesc::Envmap(m)) => {
+            let t = shape_transform(&file, "environment", m.transform.as_ref())?;
+            let _ = writeln!(
+                x,
+                "    <emitter type=\"envmap\">\n        <string name=\"filename\" value=\"{}\"/>\n        \
+                 <float name=\"scale\" value=\"{}\"/>\n{}    </emitter>",
+                escape(&files.written(&m.file).display().to_string()),
+                m.scale.unwrap_or(1.0),
+                matrix(t)
+            );
+        }
     }
     let _ = writeln!(x, "</scene>");
     if !desc.user_paths.is_empty() {
@@ -421,6 +444,18 @@ fn material_xml(
             optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
             p.nonlinear.unwrap_or(false),
             roughness_props(&p.roughness(), INNER)
+        )),
+        MaterialDesc::Plastic(p) => twosided(format!(
+            "        <bsdf type=\"plastic\">\n            <float name=\"int_ior\" value=\"{}\"/>\n            \
+             <float name=\"ext_ior\" value=\"1\"/>\n{}{}            <boolean name=\"nonlinear\" value=\"{}\"/>\n        </bsdf>\n",
+            p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
+            files.color(
+                "diffuse_reflectance",
+                p.diffuse_reflectance.as_ref().unwrap_or(&Color::Rgb(Fixed([0.5; 3]))),
+                INNER
+            ),
+            optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
+            p.nonlinear.unwrap_or(false),
         )),
         MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),

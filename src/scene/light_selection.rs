@@ -106,6 +106,18 @@ pub struct LightContext {
     local_total: Option<f32>,
     /// Every light with the same probability (Mitsuba 3's emitter selection).
     uniform: bool,
+    /// Probability of picking the scene's environment rather than an area light (0 without
+    /// one); the area lights share the rest as the selection says.
+    environment: f32,
+}
+
+/// What next-event estimation picked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Emitter {
+    /// Area light `i` of `Scene::lights`.
+    Area(usize),
+    /// The scene's environment.
+    Environment,
 }
 
 /// Scratch space for the local weights of every light at one receiver.
@@ -138,13 +150,30 @@ impl LightSampling {
                 *wi = local_weight(light, &scene.primitives[light.prim as usize], &r);
                 total += *wi;
             }
+            // The environment's weight in the same units, Y(L̄) · Ω · c̄: the mean radiance over
+            // the hemisphere above the receiver (the sphere for a transmitting one).
+            let environment = scene.environment.as_ref().map_or(0.0, |e| {
+                let w_env = luminance(e.mean_radiance()).max(0.0) * if r.two_sided { 2.0 * TAU } else { TAU };
+                if w_env + total > 0.0 {
+                    w_env / (w_env + total)
+                } else {
+                    0.0
+                }
+            });
             return LightContext {
                 receiver: r,
                 sphere: self.sphere,
                 local_total: Some(total),
                 uniform: false,
+                environment,
             };
         }
+        let uniform = self.selection == LightSelection::Uniform;
+        let environment = match (&scene.environment, uniform) {
+            (None, _) => 0.0,
+            (Some(_), true) => 1.0 / (scene.lights.len() + 1) as f32,
+            (Some(_), false) => scene.environment_power_share,
+        };
         LightContext {
             receiver: Receiver {
                 p,
@@ -153,17 +182,35 @@ impl LightSampling {
             },
             sphere: self.sphere,
             local_total: None,
-            uniform: self.selection == LightSelection::Uniform,
+            uniform,
+            environment,
         }
     }
 }
 
 impl LightContext {
-    /// Picks a light with `u ∈ [0, 1)`: its index and probability; `None` when no light can
-    /// contribute at the receiver (local selection only). `weights` must be the buffer
-    /// [`LightSampling::at`] filled for this context.
+    /// Picks an emitter with `u ∈ [0, 1)`: the environment or an area light, and its
+    /// probability; `None` when nothing can contribute at the receiver (local selection only).
+    /// `weights` must be the buffer [`LightSampling::at`] filled for this context.
     #[inline]
-    pub fn choose(&self, scene: &Scene, weights: &Option<LocalWeights>, u: f32) -> Option<(usize, f32)> {
+    pub fn choose(&self, scene: &Scene, weights: &Option<LocalWeights>, u: f32) -> Option<(Emitter, f32)> {
+        let p_env = self.environment;
+        if p_env <= 0.0 {
+            return self
+                .choose_area(scene, weights, u)
+                .map(|(i, pmf)| (Emitter::Area(i), pmf));
+        }
+        if u < p_env || scene.lights.is_empty() {
+            return Some((Emitter::Environment, p_env));
+        }
+        let u = ((u - p_env) / (1.0 - p_env)).min(1.0 - f32::EPSILON / 2.0);
+        self.choose_area(scene, weights, u)
+            .map(|(i, pmf)| (Emitter::Area(i), pmf * (1.0 - p_env)))
+    }
+
+    /// Picks an area light with `u ∈ [0, 1)`, by the selection alone.
+    #[inline]
+    fn choose_area(&self, scene: &Scene, weights: &Option<LocalWeights>, u: f32) -> Option<(usize, f32)> {
         if self.uniform {
             let n = scene.lights.len();
             return (n > 0).then(|| (((u * n as f32) as usize).min(n - 1), 1.0 / n as f32));
@@ -192,10 +239,10 @@ impl LightContext {
         last.map(|i| (i, w[i] / total))
     }
 
-    /// Probability that [`LightContext::choose`] picks light `i`.
+    /// Probability that [`LightContext::choose`] picks area light `i`.
     #[inline]
     pub fn pmf(&self, scene: &Scene, i: usize) -> f32 {
-        match self.local_total {
+        let area = match self.local_total {
             None if self.uniform => 1.0 / scene.lights.len() as f32,
             None => scene.light_selection.pmf(i),
             Some(total) if total > 0.0 => {
@@ -203,6 +250,22 @@ impl LightContext {
                 local_weight(light, &scene.primitives[light.prim as usize], &self.receiver) / total
             }
             Some(_) => 0.0,
+        };
+        if self.environment > 0.0 {
+            area * (1.0 - self.environment)
+        } else {
+            area
+        }
+    }
+
+    /// Solid-angle density with which next-event estimation here samples world direction `w`
+    /// toward the environment, selection included (the light pdf of the MIS weight of a
+    /// BSDF-sampled ray that escapes the scene).
+    #[inline]
+    pub fn pdf_environment_w(&self, scene: &Scene, w: Vec3) -> f32 {
+        match &scene.environment {
+            Some(env) if self.environment > 0.0 => self.environment * env.pdf(w),
+            _ => 0.0,
         }
     }
 

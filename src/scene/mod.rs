@@ -24,6 +24,7 @@ use crate::camera::Camera;
 use crate::color::luminance;
 use crate::error::Result;
 use crate::geometry::{Accel, Frame, Hit, Primitive, Ray};
+use crate::light::environment::Environment;
 use crate::light::{AreaLight, Emission};
 use crate::sampling::Distribution1D;
 use crate::texture::Texture;
@@ -132,8 +133,13 @@ pub struct Scene {
     pub lights: Vec<AreaLight>,
     /// Light index of each primitive (`u32::MAX` for none).
     light_of_prim: Vec<u32>,
-    /// Light selection ∝ emitted power (luminance).
+    /// Light selection among the area lights ∝ emitted power (luminance).
     pub light_selection: Distribution1D,
+    /// Light from infinitely far away (Mitsuba's `constant` and `envmap` emitters), if any.
+    pub environment: Option<Environment>,
+    /// The environment's share of the scene's emitted power (0 without one): the probability
+    /// that selection by power picks it rather than an area light.
+    pub environment_power_share: f32,
     pub user_paths: Vec<UserPath>,
     pub accel: Accel,
 }
@@ -190,6 +196,32 @@ impl Scene {
         attrs: Vec<PrimAttrs>,
         user_paths: Vec<UserPath>,
     ) -> Result<Scene> {
+        Self::assemble_with_environment(
+            name,
+            source,
+            content_hash,
+            camera,
+            materials,
+            primitives,
+            attrs,
+            user_paths,
+            None,
+        )
+    }
+
+    /// [`Scene::assemble`] with light from infinitely far away.
+    #[allow(clippy::too_many_arguments)]
+    pub fn assemble_with_environment(
+        name: String,
+        source: PathBuf,
+        content_hash: String,
+        camera: Camera,
+        materials: Vec<Material>,
+        primitives: Vec<Primitive>,
+        attrs: Vec<PrimAttrs>,
+        user_paths: Vec<UserPath>,
+        environment: Option<Environment>,
+    ) -> Result<Scene> {
         assert_eq!(primitives.len(), attrs.len());
         let mut lights = Vec::new();
         let mut light_of_prim = vec![u32::MAX; primitives.len()];
@@ -207,11 +239,24 @@ impl Scene {
             }
         }
         let weights: Vec<f32> = lights.iter().map(|l| luminance(l.power()).max(0.0)).collect();
-        let Some(light_selection) = Distribution1D::new(&weights) else {
-            crate::bail!(
+        let area_power: f32 = weights.iter().sum();
+        let environment_power = environment.as_ref().map_or(0.0, |e| {
+            let (lo, hi) = bounds_of(&primitives);
+            e.power(0.5 * (hi - lo).length())
+        });
+        let light_selection = match Distribution1D::new(&weights) {
+            Some(d) => d,
+            // Only the environment emits: the table is never read (its share is 1).
+            None if environment_power > 0.0 => Distribution1D::new(&[1.0]).expect("one positive weight"),
+            None => crate::bail!(
                 "{}: the scene has no light with positive power (add an `emission` to a shape)",
                 source.display()
-            );
+            ),
+        };
+        let environment_power_share = if environment_power > 0.0 {
+            environment_power / (environment_power + area_power)
+        } else {
+            0.0
         };
         let accel = Accel::build(&primitives);
         Ok(Scene {
@@ -226,6 +271,8 @@ impl Scene {
             lights,
             light_of_prim,
             light_selection,
+            environment,
+            environment_power_share,
             user_paths,
             accel,
         })
@@ -344,20 +391,25 @@ impl Scene {
     /// The bounding box of every primitive (lower, upper corner); the unit cube for a scene
     /// without primitives.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for prim in &self.primitives {
-            let (a, b) = match *prim {
-                Primitive::Triangle(v) => (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2])),
-                Primitive::Sphere { center, radius } => (center - radius, center + radius),
-            };
-            lo = lo.min(a);
-            hi = hi.max(b);
-        }
-        if lo.x > hi.x { (Vec3::ZERO, Vec3::ONE) } else { (lo, hi) }
+        bounds_of(&self.primitives)
     }
 
     /// Total emitted power of all lights, per channel.
     pub fn total_power(&self) -> Vec3 {
         self.lights.iter().map(|l| l.power()).sum()
     }
+}
+
+/// The bounding box of `primitives` (lower, upper corner); the unit cube when there are none.
+fn bounds_of(primitives: &[Primitive]) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for prim in primitives {
+        let (a, b) = match *prim {
+            Primitive::Triangle(v) => (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2])),
+            Primitive::Sphere { center, radius } => (center - radius, center + radius),
+        };
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    if lo.x > hi.x { (Vec3::ZERO, Vec3::ONE) } else { (lo, hi) }
 }

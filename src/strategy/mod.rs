@@ -53,6 +53,20 @@ pub trait Strategy: Send + Sync {
     /// Every parameter with its value, in a fixed order (recorded with every result row).
     fn params(&self) -> Vec<(String, String)>;
 
+    /// Whether the strategy renders light from infinitely far away (a scene's `environment`:
+    /// Mitsuba's `constant` and `envmap`). The others refuse such a scene before anything runs
+    /// ([`check_scene`]) rather than render it without that light.
+    fn handles_environment(&self) -> bool {
+        false
+    }
+
+    /// Whether the strategy renders models with a delta lobe beside a non-delta one (Mitsuba's
+    /// smooth `plastic`), i.e. treats each sample's `delta` flag rather than the surface's
+    /// class. The others refuse such a scene ([`check_scene`]).
+    fn handles_mixed_delta(&self) -> bool {
+        false
+    }
+
     /// Work done once per scene and seed before any sample is taken.
     fn prepare(&mut self, scene: &Scene, seed: u64) -> Result<Vec<Phase>> {
         let _ = (scene, seed);
@@ -87,6 +101,39 @@ pub trait Strategy: Send + Sync {
         let _ = (scene, seed);
         Vec::new()
     }
+}
+
+/// Refuses a scene the strategy cannot render faithfully, with one line naming both.
+pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
+    let able = |can: fn(&dyn Strategy) -> bool| -> Vec<&'static str> {
+        kinds()
+            .into_iter()
+            .filter(|k| build(k, toml::Table::new()).is_ok_and(|s| can(&*s)))
+            .collect()
+    };
+    if let Some(m) = scene.materials.iter().find(|m| m.bsdf.mixes_delta())
+        && !strategy.handles_mixed_delta()
+    {
+        crate::bail!(
+            "{}: strategy `{}` does not render material {:?} (a smooth plastic: a delta coating over a \
+             diffuse base) yet; strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            m.name,
+            able(|s| s.handles_mixed_delta()).join(", ")
+        );
+    }
+    if scene.environment.is_some() && !strategy.handles_environment() {
+        let able = able(|s| s.handles_environment());
+        crate::bail!(
+            "{}: strategy `{}` does not render environment light (the scene's `constant` or `envmap` \
+             emitter) yet; strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            able.join(", ")
+        );
+    }
+    Ok(())
 }
 
 /// Renders `samples` of every pixel with a per-pixel estimator `radiance(ray, rng)`, in parallel

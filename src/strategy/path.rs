@@ -20,9 +20,9 @@ use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray};
 use crate::light::{LightSampling, LightSelection, PointPdf, Receiver, SphereSampling};
 use crate::params::{Params, Range};
 use crate::sampling::{Rng, power_heuristic, sample_uniform_hemisphere, sample_uniform_sphere, uniform_sphere_pdf};
-use crate::scene::light_selection::{LightContext, LocalWeights};
+use crate::scene::light_selection::{Emitter, LightContext, LocalWeights};
 use crate::scene::{Scene, SurfaceHit};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
 crate::declare_choice! {
@@ -111,6 +111,14 @@ impl Declared for Path {
 }
 
 impl Strategy for Path {
+    fn handles_mixed_delta(&self) -> bool {
+        true
+    }
+
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }
@@ -245,8 +253,12 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
     tally: &mut impl RayTally,
 ) -> Vec3 {
     let (u_light, u_point) = (rng.uniform(), rng.uniform2());
-    let Some((light_index, pmf)) = lights.choose(scene, weights, u_light) else {
-        return Vec3::ZERO;
+    let (light_index, pmf) = match lights.choose(scene, weights, u_light) {
+        None => return Vec3::ZERO,
+        Some((Emitter::Environment, pmf)) => {
+            return environment_direct(scene, hit, bsdf, wo, u_point, pmf, direct, (sampler, vertex), tally);
+        }
+        Some((Emitter::Area(i), pmf)) => (i, pmf),
     };
     let light = &scene.lights[light_index];
     let lp = lights.sample_point(light, &scene.primitives[light.prim as usize], u_point);
@@ -281,6 +293,52 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
         _ => 1.0,
     };
     f * le * (wi_local.z.abs() * weight / pdf_light_w)
+}
+
+/// Next-event estimation toward the environment, picked with probability `pmf`: a direction
+/// from its importance sampling, a shadow ray to infinity, MIS against the BSDF's density as
+/// for area lights.
+#[allow(clippy::too_many_arguments)]
+fn environment_direct<S: DirectionSampler>(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    u: Vec2,
+    pmf: f32,
+    direct: Direct,
+    (sampler, vertex): (&S, &S::Vertex),
+    tally: &mut impl RayTally,
+) -> Vec3 {
+    let Some(env) = &scene.environment else {
+        return Vec3::ZERO;
+    };
+    let Some(s) = env.sample(u) else {
+        return Vec3::ZERO;
+    };
+    if s.le == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let wi_local = hit.frame.to_local(s.wi);
+    // As for BSDF-sampled directions: one the geometric normal disagrees with leaks light.
+    if s.wi.dot(hit.ng) * wi_local.z <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let f = bsdf.eval(wo, wi_local, TransportMode::Radiance);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let shadow = spawn_ray(hit.p, hit.ng, s.wi);
+    tally.shadow(&shadow);
+    if !scene.unoccluded(&shadow) {
+        return Vec3::ZERO;
+    }
+    let pdf_light_w = pmf * s.pdf_w;
+    let weight = match direct {
+        Direct::Mis => power_heuristic(pdf_light_w, sampler.pdf(vertex, bsdf, wo, wi_local)),
+        _ => 1.0,
+    };
+    f * s.le * (wi_local.z.abs() * weight / pdf_light_w)
 }
 
 /// Radiance arriving along `ray` (one path sample).
@@ -347,7 +405,23 @@ pub fn trace<S: DirectionSampler>(
     let mut depth = 0u32;
     loop {
         tally.closest(&ray);
-        let Some(hit) = scene.intersect(&ray) else { break };
+        let Some(hit) = scene.intersect(&ray) else {
+            // The ray leaves the scene: the environment's light, weighted as an area light's.
+            if let Some(env) = &scene.environment {
+                let le = env.le(ray.d);
+                let weight = if prev_specular || params.direct == Direct::Bsdf {
+                    1.0
+                } else if params.direct == Direct::Nee {
+                    0.0
+                } else {
+                    let pdf_light_w = prev_lights.as_ref().map_or(0.0, |c| c.pdf_environment_w(scene, ray.d));
+                    power_heuristic(prev_pdf_w, pdf_light_w)
+                };
+                l += beta * le * weight;
+                tally.contributed(beta * le * weight);
+            }
+            break;
+        };
 
         // Emission seen along the ray.
         if let Some(light_index) = scene.light_index_of(hit.prim) {

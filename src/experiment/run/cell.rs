@@ -96,6 +96,7 @@ pub(super) fn render_cell(
     dir: &Path,
 ) -> Result<Vec<Row>> {
     let mut strategy = spec.instantiate()?;
+    crate::strategy::check_scene(&*strategy, &p.scene)?;
     let params = param_string(spec)?;
     let start = Instant::now();
     let phases = strategy.prepare(&p.scene, seed)?;

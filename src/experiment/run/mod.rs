@@ -69,6 +69,9 @@ fn prepare_all(exp: &Experiment) -> Result<Vec<Prepared>> {
     let mut prepared = Vec::new();
     for path in &exp.scenes {
         let scene = path.load()?;
+        for spec in exp.strategies.iter().filter(|spec| spec.runs_on(path)) {
+            crate::strategy::check_scene(&*spec.instantiate()?, &scene)?;
+        }
         let reference = reference::load(&exp.references, &scene)?;
         prepared.push(Prepared {
             file: path.clone(),

@@ -319,7 +319,8 @@ impl Builder<'_> {
         let file_field = format!("{field}.file");
         let path = self.dir.join(&m.file);
         let shown = path.display().to_string();
-        let bytes = read_regular_file(&path).map_err(|e| ctx.err(&file_field, format!("cannot read {shown}: {e}")))?;
+        let bytes =
+            read_regular_file(&path, "mesh").map_err(|e| ctx.err(&file_field, format!("cannot read {shown}: {e}")))?;
         self.stats.files_read.push(path.clone());
         let extension = path
             .extension()
@@ -427,7 +428,7 @@ impl Builder<'_> {
         let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             tobj::load_obj_buf(&mut &bytes[..], &options, |p| {
                 let p = obj_dir.join(p);
-                if let Ok(b) = read_regular_file(&p) {
+                if let Ok(b) = read_regular_file(&p, "material library") {
                     mtl.borrow_mut().push((p, b));
                 }
                 Err(tobj::LoadError::GenericFailure)
@@ -499,11 +500,11 @@ fn cube_uv(p: DVec3, normal: DVec3) -> DVec2 {
     }
 }
 
-/// Reads a mesh file, refusing devices, pipes and files larger than any mesh
-/// ([`crate::util::read_input`]).
-pub(super) fn read_regular_file(path: &Path) -> std::io::Result<Vec<u8>> {
+/// Reads a file a scene names (`what`: "mesh", "image" …), refusing devices, pipes and files
+/// larger than any mesh ([`crate::util::read_input`]).
+pub(super) fn read_regular_file(path: &Path, what: &str) -> std::io::Result<Vec<u8>> {
     // The caller names the path; the message keeps only what is wrong with it.
-    crate::util::read_input(path, "mesh", crate::util::MAX_MESH_INPUT).map_err(|e| {
+    crate::util::read_input(path, what, crate::util::MAX_MESH_INPUT).map_err(|e| {
         let msg = e.to_string();
         let prefix = format!("{}: ", path.display());
         std::io::Error::other(msg.strip_prefix(&prefix).unwrap_or(&msg).to_string())

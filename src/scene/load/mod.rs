@@ -20,6 +20,7 @@
 //! proposal's paths), `tests.rs` (including the fuzz tests). What does not live here: the
 //! Mitsuba importer ([`super::mitsuba`]) and anything a renderer does with the scene.
 
+mod environment;
 mod locate;
 mod mesh;
 mod mesh_formats;
@@ -230,14 +231,28 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         };
         b.shape(&field, shape, &material_index)?;
     }
-    if !b
-        .attrs
-        .iter()
-        .any(|a| a.emission.is_some_and(|e| e.le.max_element() > 0.0))
+    let environment = match &desc.environment {
+        Some(e) => Some(environment::environment(
+            &ctx,
+            &b.dir,
+            e,
+            &mut b.hashed,
+            &mut b.stats.files_read,
+        )?),
+        None => None,
+    };
+    let environment_emits = environment
+        .as_ref()
+        .is_some_and(|e| e.mean_radiance().max_element() > 0.0);
+    if !environment_emits
+        && !b
+            .attrs
+            .iter()
+            .any(|a| a.emission.is_some_and(|e| e.le.max_element() > 0.0))
     {
         return Err(ctx.whole(
             "no light: give at least one shape `emission = { radiance = [r, g, b] }` with a \
-             positive channel",
+             positive channel, or an `[environment]`",
         ));
     }
     let user_paths = user_paths(&ctx, &desc.user_paths, &b.primitives, &b.attrs)?;
@@ -274,7 +289,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         .filter(|p| matches!(p, Primitive::Triangle(_)))
         .count();
     stats.spheres = primitives.len() - stats.triangles;
-    let mut scene = Scene::assemble(
+    let mut scene = Scene::assemble_with_environment(
         name,
         path.to_path_buf(),
         hash,
@@ -283,6 +298,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         primitives,
         attrs,
         user_paths,
+        environment,
     )?;
     scene.params = source.sorted_params();
     Ok((scene, stats))

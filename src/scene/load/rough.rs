@@ -4,7 +4,7 @@
 use super::textures::Textures;
 use super::*;
 use crate::bsdf::{
-    Bsdf, ColorParam, Conductor, ConductorIor, Microfacet, MicrofacetType, RoughConductor, RoughDielectric,
+    Bsdf, ColorParam, Conductor, ConductorIor, Microfacet, MicrofacetType, Plastic, RoughConductor, RoughDielectric,
     RoughPlastic, named_conductor_list,
 };
 use crate::error::Result;
@@ -170,4 +170,19 @@ pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic, text
         distribution,
         m.nonlinear.unwrap_or(false),
     )))
+}
+
+/// A smooth plastic: rough plastic's fields without the roughness.
+pub(super) fn plastic(ctx: &Ctx, field: &str, m: &desc::Plastic, textures: &mut Textures) -> Result<Bsdf> {
+    let f = |key: &str| format!("{field}.{key}");
+    let diffuse = match &m.diffuse_reflectance {
+        Some(c) => textures.unit_color(ctx, &f("diffuse_reflectance"), c, ColorParam::DiffuseReflectance)?,
+        None => Vec3::splat(0.5),
+    };
+    Ok(Bsdf::Plastic(Plastic {
+        diffuse_reflectance: diffuse,
+        specular_reflectance: unit_or_one(ctx, &f("specular_reflectance"), m.specular_reflectance)?,
+        ior: interface_ior(ctx, &f("ior"), m.ior.unwrap_or(PLASTIC_DEFAULT_IOR))?,
+        nonlinear: m.nonlinear.unwrap_or(false),
+    }))
 }

@@ -222,7 +222,7 @@ fn user_paths_expand_one_cone_angle_to_every_segment() {
 /// The module doc of `desc` is the format's reference (and the user guide's): it must load.
 #[test]
 fn the_documented_example_loads() {
-    let source = include_str!("../desc.rs");
+    let source = include_str!("../desc/mod.rs");
     let example: String = source
         .lines()
         .filter_map(|l| l.strip_prefix("//!"))
@@ -237,17 +237,25 @@ fn the_documented_example_loads() {
     std::fs::create_dir(dir.path().join("meshes")).unwrap();
     let obj = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nf 1 2 3\n";
     std::fs::write(dir.path().join("meshes/bunny.obj"), obj).unwrap();
+    std::fs::create_dir(dir.path().join("textures")).unwrap();
+    let sky = crate::film::Image {
+        width: 4,
+        height: 2,
+        pixels: vec![glam::Vec3::ONE; 8],
+    };
+    crate::film::write_exr(&sky, &dir.path().join("textures/sky.exr")).unwrap();
     let path = dir.path().join("example.toml");
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 13);
+    assert_eq!(scene.materials.len(), 14);
     let floor = scene.materials.iter().find(|m| m.name == "floor").unwrap();
     assert_eq!(floor.textures.len(), 1, "the checkerboard floor is textured");
     assert_eq!(stats.spheres, 1);
     // Two quads (the second with `subdivide = 4`), a box with `subdivide = 2`, a triangle.
     assert_eq!(stats.triangles, 2 + 2 * 4 * 4 + 12 * 2 * 2 + 1);
     assert_eq!(scene.user_paths.len(), 1);
+    assert!(scene.environment.is_some());
 }
 
 #[test]

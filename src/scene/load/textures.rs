@@ -102,8 +102,8 @@ impl<'a> Textures<'a> {
             Some(image) => image.clone(),
             None => {
                 let shown = path.display().to_string();
-                let bytes =
-                    read_regular_file(&path).map_err(|e| ctx.err(&f("file"), format!("cannot read {shown}: {e}")))?;
+                let bytes = read_regular_file(&path, "texture")
+                    .map_err(|e| ctx.err(&f("file"), format!("cannot read {shown}: {e}")))?;
                 let (w, h, texels) =
                     decode_image(&bytes, raw).map_err(|e| ctx.err(&f("file"), format!("{shown}: {e}")))?;
                 if u64::from(w) * u64::from(h) > MAX_TEXELS {

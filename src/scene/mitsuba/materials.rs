@@ -109,6 +109,16 @@ impl<'a, 'i> Reader<'a, 'i> {
                     sample_visible: r.sample_visible,
                 })
             }
+            "plastic" => {
+                let int_ior = self.ior(&mut o, "int_ior", 1.49)?;
+                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                MaterialDesc::Plastic(desc::Plastic {
+                    diffuse_reflectance: self.texture_colour(&mut o, "diffuse_reflectance")?,
+                    specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
+                    ior: Some(int_ior / ext_ior),
+                    nonlinear: self.boolean(&mut o, "nonlinear")?,
+                })
+            }
             "dielectric" => {
                 let int_ior = self.ior(&mut o, "int_ior", 1.5046)?;
                 let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
@@ -137,7 +147,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     n,
                     format!(
                         "unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, \
-                         roughdielectric, thindielectric, roughplastic, twosided)"
+                         roughdielectric, thindielectric, plastic, roughplastic, twosided)"
                     ),
                 ));
             }

@@ -195,6 +195,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
 #[derive(Default)]
 struct SceneParts {
     camera: Option<desc::CameraDesc>,
+    environment: Option<desc::EnvironmentDesc>,
     shapes: Vec<desc::ShapeDesc>,
     labels: Vec<String>,
     included: Vec<(std::path::PathBuf, Vec<u8>)>,
@@ -347,6 +348,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         self.scene_elements(root, &mut parts)?;
         let SceneParts {
             camera,
+            environment,
             shapes,
             labels,
             included,
@@ -357,14 +359,16 @@ impl<'a, 'i> Reader<'a, 'i> {
                 self.file
             )));
         };
-        if !shapes.iter().any(|s| {
-            s.common()
-                .2
-                .is_some_and(|e: &desc::EmissionDesc| e.radiance.iter().any(|&c| c > 0.0))
-        }) {
+        if environment.is_none()
+            && !shapes.iter().any(|s| {
+                s.common()
+                    .2
+                    .is_some_and(|e: &desc::EmissionDesc| e.radiance.iter().any(|&c| c > 0.0))
+            })
+        {
             return Err(Error::new(format!(
                 "{}: no light: add <emitter type=\"area\"><rgb name=\"radiance\" value=\"…\"/></emitter> with a \
-                 positive channel to a <shape>",
+                 positive channel to a <shape>, or an <emitter type=\"constant\"> or \"envmap\"",
                 self.file
             )));
         }
@@ -375,6 +379,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 materials: std::mem::take(&mut self.materials),
                 shapes,
                 user_paths: Vec::new(),
+                environment,
             },
             shape_labels: labels,
             warnings: std::mem::take(&mut self.warnings),
@@ -468,10 +473,16 @@ impl<'a, 'i> Reader<'a, 'i> {
                 ),
                 "sampler" => self.warn(n, "ignored: the experiment file sets the samples per pixel"),
                 "emitter" if n.attribute("type") == Some("area") => {}
+                "emitter" if matches!(n.attribute("type"), Some("constant" | "envmap")) => {
+                    if parts.environment.is_some() {
+                        return Err(self.err(n, "a second environment emitter: photon-bench takes one per scene"));
+                    }
+                    parts.environment = Some(self.environment(n)?);
+                }
                 "emitter" => {
                     return Err(self.err(
                         n,
-                        "unsupported emitter: photon-bench has area lights only (put <emitter type=\"area\"> inside a <shape>)",
+                        "unsupported emitter (photon-bench reads area emitters inside shapes, constant and envmap)",
                     ));
                 }
                 other => {

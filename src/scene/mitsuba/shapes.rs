@@ -174,6 +174,37 @@ impl<'a, 'i> Reader<'a, 'i> {
             .to_string())
     }
 
+    /// A top-level `constant` or `envmap` emitter.
+    pub(super) fn environment(&mut self, n: Node<'a, 'i>) -> Result<desc::EnvironmentDesc> {
+        let kind = self.required(n, "type")?;
+        let mut o = self.obj(n)?;
+        let env = if kind == "constant" {
+            let radiance = self.unbounded_colour(&mut o, "radiance")?.unwrap_or(Fixed([1.0; 3]));
+            desc::EnvironmentDesc::Constant(desc::ConstantEnvironment { radiance })
+        } else {
+            let Some((p, file)) = self.string(&mut o, "filename")? else {
+                return Err(self.err(n, "expected <string name=\"filename\">"));
+            };
+            let path = self.resolve(&file);
+            if !path.is_file() {
+                return Err(self.err(p, format!("filename: cannot read {}: no such file", path.display())));
+            }
+            if self.boolean(&mut o, "mis_compensation")? == Some(true) {
+                return Err(self.err(n, "mis_compensation=\"true\" is not supported"));
+            }
+            desc::EnvironmentDesc::Envmap(desc::EnvmapDesc {
+                file: self.loader_path(p, &file, &path)?,
+                scale: self.float(&mut o, "scale")?,
+                transform: self.transform(&mut o, "to_world")?.map(|(_, m)| matrix_step(m)),
+            })
+        };
+        if let Some(&c) = o.children.first() {
+            return Err(self.err(c, "unexpected element in an emitter"));
+        }
+        self.finish(&o)?;
+        Ok(env)
+    }
+
     pub(super) fn area(&mut self, n: Node<'a, 'i>) -> Result<desc::EmissionDesc> {
         let kind = self.required(n, "type")?;
         if kind != "area" {

@@ -253,6 +253,14 @@ impl Declared for PhotonGuided {
 }
 
 impl Strategy for PhotonGuided {
+    fn handles_mixed_delta(&self) -> bool {
+        true
+    }
+
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

@@ -36,7 +36,14 @@ impl Renderer<'_> {
         let mut l = Vec3::ZERO;
         let mut beta = Vec3::ONE;
         let mut depth = 0u32;
-        while let Some(hit) = scene.intersect(&ray) {
+        loop {
+            let Some(hit) = scene.intersect(&ray) else {
+                // Escaped, seen directly or through delta surfaces: the environment's light.
+                if let Some(env) = &scene.environment {
+                    l += beta * env.le(ray.d);
+                }
+                break;
+            };
             if let Some(light) = scene.light_of(hit.prim) {
                 l += beta * light.le(hit.ng, -ray.d);
             }
@@ -134,7 +141,10 @@ impl Renderer<'_> {
                 if weight == Vec3::ZERO {
                     continue;
                 }
-                indirect += weight * self.gather(spawn_ray(hit.p, hit.ng, wi), primary, rng, c).0;
+                // Light seen through a delta lobe of a mixed model (a smooth plastic's coating)
+                // is found by no next-event estimate: the gather ray counts it.
+                let ray = spawn_ray(hit.p, hit.ng, wi);
+                indirect += weight * self.gather_counting(ray, primary, s.delta, rng, c);
             }
             indirect /= g as f32;
         }
@@ -146,14 +156,29 @@ impl Renderer<'_> {
     /// first surface hit (infinite when the ray escapes).
     pub(super) fn gather(&self, ray: Ray, primary: bool, rng: &mut Rng, c: &mut PhotonMapCounters) -> (Vec3, f32) {
         let mut first = f32::INFINITY;
-        let l = self.gather_to(ray, primary, rng, c, &mut first);
+        let l = self.gather_to(ray, primary, false, rng, c, &mut first);
         (l, first)
+    }
+
+    /// [`Renderer::gather`] that also counts emission (and the environment) from the start
+    /// when `count_emission`.
+    fn gather_counting(
+        &self,
+        ray: Ray,
+        primary: bool,
+        count_emission: bool,
+        rng: &mut Rng,
+        c: &mut PhotonMapCounters,
+    ) -> Vec3 {
+        let mut first = f32::INFINITY;
+        self.gather_to(ray, primary, count_emission, rng, c, &mut first)
     }
 
     pub(super) fn gather_to(
         &self,
         mut ray: Ray,
         primary: bool,
+        count_emission: bool,
         rng: &mut Rng,
         c: &mut PhotonMapCounters,
         first: &mut f32,
@@ -166,9 +191,13 @@ impl Renderer<'_> {
         // Emission is left to next-event estimation at the gather's origin and, behind delta
         // surfaces only, to the caustic map; once the chain has crossed a glossy vertex neither
         // covers it, so it is counted here.
-        let mut through_glossy = false;
+        let mut through_glossy = count_emission;
         loop {
             let Some(hit) = scene.intersect(&ray) else {
+                // The environment, like emission, is counted only behind a glossy vertex.
+                if through_glossy && let Some(env) = &scene.environment {
+                    l += beta * env.le(ray.d);
+                }
                 return l;
             };
             if depth == 0 {

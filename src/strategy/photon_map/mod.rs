@@ -267,6 +267,14 @@ impl Declared for PhotonMapStrategy {
 }
 
 impl Strategy for PhotonMapStrategy {
+    fn handles_mixed_delta(&self) -> bool {
+        true
+    }
+
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
     fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {
         self.draw_figures(scene, seed)
     }

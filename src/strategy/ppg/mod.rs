@@ -155,7 +155,12 @@ impl DirectionSampler for Guide<'_> {
             let (u, u_lobe) = (rng.uniform2(), rng.uniform());
             let s = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)?;
             if s.delta {
-                return Some(s);
+                // A delta lobe of a mixed model (smooth plastic), reached only through this
+                // branch: its probability is α times the BSDF's.
+                return Some(BsdfSample {
+                    pdf_w: s.pdf_w * self.alpha,
+                    ..s
+                });
             }
             s.wi
         } else {
@@ -319,6 +324,14 @@ impl Ppg {
 }
 
 impl Strategy for Ppg {
+    fn handles_mixed_delta(&self) -> bool {
+        true
+    }
+
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

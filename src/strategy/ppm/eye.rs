@@ -54,7 +54,13 @@ pub fn trace_eye(scene: &Scene, mut ray: Ray, max_depth: u32, direct: DirectLigh
     let mut beta = Vec3::ONE;
     let mut count_emission = true;
     let mut depth = 0u32;
-    while let Some(hit) = scene.intersect(&ray) {
+    loop {
+        let Some(hit) = scene.intersect(&ray) else {
+            if count_emission && let Some(env) = &scene.environment {
+                out.emitted += beta * env.le(ray.d);
+            }
+            break;
+        };
         if count_emission && let Some(light) = scene.light_index_of(hit.prim) {
             out.emitted += beta * scene.lights[light].le(hit.ng, -ray.d);
         }

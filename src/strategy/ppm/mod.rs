@@ -422,6 +422,10 @@ macro_rules! progressive_strategy {
                 Self::KIND
             }
 
+            fn handles_environment(&self) -> bool {
+                true
+            }
+
             fn params(&self) -> Vec<(String, String)> {
                 self.params.columns()
             }

@@ -75,6 +75,11 @@
 //! ior = 1.49                        # coating, default 1.49 (polypropylene)
 //! alpha = 0.15
 //! nonlinear = false                 # optional, as Mitsuba
+//! [materials.shiny]
+//! type = "plastic"                  # Mitsuba's smooth `plastic`: a mirror-like coating over a
+//! diffuse_reflectance = [0.1, 0.3, 0.6]    # diffuse base (fields as rough_plastic's, no
+//! ior = 1.5                         # roughness); rendered by path, ppg, photon_guided and
+//!                                   # photon_map (the others refuse it)
 //! [materials.matte_front]
 //! type = "one_sided"                # black from behind, as Mitsuba's BSDFs without `twosided`
 //! bsdf = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }   # any reflecting material
@@ -119,6 +124,13 @@
 //! # shape_index = 0                 # optional, .serialized only: which mesh of the file
 //! transform = [{ matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] },
 //!              { rotate_x = -90 }, { translate = [0, 0.1, 0] }]
+//!
+//! # Light from infinitely far away (optional): a constant or an image (latitude–longitude).
+//! [environment]
+//! type = "envmap"                   # or type = "constant" with radiance = [r, g, b]
+//! file = "textures/sky.exr"         # OpenEXR (linear), PNG or JPEG (sRGB); relative to here
+//! scale = 1.0                       # optional, default 1
+//! transform = { rotate_y = 90 }     # optional; rotations only
 //!
 //! # User paths for Metropolis photon sampling [Fan et al. 2005, §4.3] (optional).
 //! [[user_paths]]
@@ -177,9 +189,8 @@
 //! and #2294).
 
 use serde::Deserialize;
-use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+
 use std::collections::BTreeMap;
-use std::fmt;
 
 /// A point, vector or RGB triple as written in the file.
 pub type Triple = Fixed<f64, 3>;
@@ -219,6 +230,35 @@ pub struct SceneDesc {
     pub shapes: Vec<ShapeDesc>,
     #[serde(default)]
     pub user_paths: Vec<UserPathDesc>,
+    /// Light from infinitely far away (optional).
+    pub environment: Option<EnvironmentDesc>,
+}
+
+/// Light from infinitely far away; `type` selects the variant.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum EnvironmentDesc {
+    Constant(ConstantEnvironment),
+    Envmap(EnvmapDesc),
+}
+
+/// The same radiance from every direction (Mitsuba's `constant`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstantEnvironment {
+    pub radiance: Triple,
+}
+
+/// A latitude–longitude image (Mitsuba's `envmap`): OpenEXR (linear), PNG or JPEG (sRGB).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvmapDesc {
+    /// Relative to the directory of the scene file.
+    pub file: String,
+    /// Multiplies the radiance (default 1).
+    pub scale: Option<f64>,
+    /// A rotation of the map (its +y is the zenith, u = 0 looks down −z).
+    pub transform: Option<TransformDesc>,
 }
 
 /// A pinhole camera.
@@ -258,7 +298,20 @@ pub enum MaterialDesc {
     RoughConductor(RoughConductor),
     RoughDielectric(RoughDielectric),
     RoughPlastic(RoughPlastic),
+    Plastic(Plastic),
     OneSided(OneSided),
+}
+
+/// A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plastic {
+    /// Default 0.5.
+    pub diffuse_reflectance: Option<Color>,
+    pub specular_reflectance: Option<Triple>,
+    /// Relative index of the coating; default 1.49 (polypropylene), Mitsuba's default.
+    pub ior: Option<f64>,
+    pub nonlinear: Option<bool>,
 }
 
 /// A reflecting material that is black seen from behind, as Mitsuba 3's BSDFs are without their
@@ -641,123 +694,4 @@ pub enum ConeDeg {
     PerSegment(Vec<f64>),
 }
 
-// The three "this or a list" values below get hand-written visitors rather than
-// `#[serde(untagged)]`: an untagged enum buffers its input and answers every mistake with "data
-// did not match any variant", losing the position and the reason.
-
-impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Fixed<T, N> {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V<T, const N: usize>(std::marker::PhantomData<T>);
-        impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for V<T, N> {
-            type Value = Fixed<T, N>;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                write!(f, "an array of {N} elements")
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Fixed<T, N>, A::Error> {
-                let mut items = Vec::with_capacity(N);
-                while let Some(x) = seq.next_element()? {
-                    if items.len() == N {
-                        return Err(de::Error::invalid_length(N + 1, &self));
-                    }
-                    items.push(x);
-                }
-                let len = items.len();
-                items
-                    .try_into()
-                    .map(Fixed)
-                    .map_err(|_| de::Error::invalid_length(len, &self))
-            }
-        }
-        d.deserialize_seq(V(std::marker::PhantomData))
-    }
-}
-
-impl<'de> Deserialize<'de> for Color {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Color;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("an array of 3 numbers or a texture table")
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Color, A::Error> {
-                Triple::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(Color::Rgb)
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Color, A::Error> {
-                TextureDesc::deserialize(de::value::MapAccessDeserializer::new(map))
-                    .map(|t| Color::Texture(Box::new(t)))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-impl<'de> Deserialize<'de> for TransformDesc {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = TransformDesc;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a transform table or a list of transform tables")
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<TransformDesc, A::Error> {
-                let step = TransformStep::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                Ok(TransformDesc(vec![step]))
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<TransformDesc, A::Error> {
-                let steps = Vec::deserialize(de::value::SeqAccessDeserializer::new(seq))?;
-                Ok(TransformDesc(steps))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-/// Visits a TOML number (integer or float) as f64.
-macro_rules! visit_numbers {
-    ($value:ty, $wrap:expr) => {
-        fn visit_f64<E: de::Error>(self, v: f64) -> Result<$value, E> {
-            Ok($wrap(v))
-        }
-        fn visit_i64<E: de::Error>(self, v: i64) -> Result<$value, E> {
-            Ok($wrap(v as f64))
-        }
-        fn visit_u64<E: de::Error>(self, v: u64) -> Result<$value, E> {
-            Ok($wrap(v as f64))
-        }
-    };
-}
-
-impl<'de> Deserialize<'de> for Scale {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Scale;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or an array of 3 numbers")
-            }
-            visit_numbers!(Scale, Scale::Uniform);
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Scale, A::Error> {
-                Triple::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(Scale::PerAxis)
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-impl<'de> Deserialize<'de> for ConeDeg {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = ConeDeg;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or an array of numbers")
-            }
-            visit_numbers!(ConeDeg, ConeDeg::All);
-            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<ConeDeg, A::Error> {
-                Vec::deserialize(de::value::SeqAccessDeserializer::new(seq)).map(ConeDeg::PerSegment)
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
+mod visitors;
