@@ -35,7 +35,9 @@ fn photon_guided_agrees_with_path_on_cornell_empty() {
         .unwrap()
         .replace("resolution = [80, 60]", "resolution = [32, 24]");
     let (scene, _) = load_scene_bytes(std::path::Path::new("scenes/cornell-empty.toml"), text.as_bytes()).unwrap();
-    let (m0, se0) = mean_and_se(&scene, "path", "", 8, 32);
+    // The baseline is cheap: 16 seeds × 64 spp keep its standard error near 0.5 %, and its
+    // estimate from 16 seeds stable enough for the check below.
+    let (m0, se0) = mean_and_se(&scene, "path", "", 16, 64);
     assert!(se0 < 0.01 * m0, "baseline precise enough: {m0} ± {se0}");
     for params in [
         "photons = 20000",

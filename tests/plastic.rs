@@ -1,7 +1,9 @@
 //! Smooth plastic (Mitsuba's `plastic`: a delta coating over a diffuse base) in the strategies:
 //! those that treat each sample's delta flag render it as `path` does, the others refuse it.
 
-use photon_bench::film::Film;
+mod agreement;
+
+use agreement::{assert_agrees, image_mean};
 use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_with_stats;
 use photon_bench::strategy::{self, Strategy};
@@ -71,32 +73,10 @@ fn strategies_that_class_vertices_by_surface_refuse_smooth_plastic() {
 #[test]
 fn strategies_that_take_smooth_plastic_agree_with_path() {
     let scene = scene();
-    let mean_of = |kind: &str, params: &str, spp: u32, seed: u64| {
-        let mut s = strategy::build(kind, toml::from_str(params).unwrap()).unwrap();
-        strategy::check_scene(&*s, &scene).unwrap();
-        s.prepare(&scene, seed).unwrap();
-        let mut film = Film::new(scene.camera.width, scene.camera.height);
-        s.render_pass(&scene, seed, 0..spp, &mut film);
-        let img = film.image();
-        img.pixels.iter().map(|p| f64::from(p.x + p.y + p.z)).sum::<f64>() / img.pixels.len() as f64
-    };
-    let stats = |kind: &str, params: &str, spp: u32| {
-        let v: Vec<f64> = (0..6).map(|seed| mean_of(kind, params, spp, seed)).collect();
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
-        (m, (var / v.len() as f64).sqrt())
-    };
-    let path = stats("path", "max_depth = 32", 256);
+    let path = image_mean(&scene, "path", "max_depth = 32", 256);
     for (kind, spp) in [("photon_guided", 64), ("ppg", 64)] {
-        let (m, se) = stats(kind, "max_depth = 32", spp);
-        let z = (m - path.0) / (se * se + path.1 * path.1).sqrt();
-        assert!(
-            z.abs() < 4.0,
-            "{kind}: {m} ± {se} vs path {} ± {} (z = {z:.2})",
-            path.0,
-            path.1
-        );
+        assert_agrees(kind, image_mean(&scene, kind, "max_depth = 32", spp), path);
     }
-    let (m, _) = stats("photon_map", "max_depth = 32", 4);
+    let (m, _) = image_mean(&scene, "photon_map", "max_depth = 32", 4);
     assert!((m / path.0 - 1.0).abs() < 0.05, "photon_map: {m} vs path {}", path.0);
 }

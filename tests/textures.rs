@@ -291,3 +291,47 @@ fn texture_files_are_hashed_and_bad_textures_refused() {
         &["unsupported texture \"voronoi\""],
     );
 }
+
+/// For an anisotropic model the shading frame's first axis is ∂p/∂u, as Mitsuba's, so that the
+/// model is oriented as there: along the rectangle's x, along a sphere's longitude about its own
+/// z, and along the direction in which a mesh's texture coordinate u grows.
+#[test]
+fn shading_tangents_follow_the_texture_parameterization() {
+    let dir = tempfile::tempdir().unwrap();
+    let frame_s = |scene: &Scene, o: Vec3, d: Vec3| scene.intersect(&Ray::new(o, d)).unwrap().frame.s;
+    let aniso =
+        r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/></bsdf>"#;
+    let rect = load_in(
+        dir.path(),
+        &format!(r#"<shape type="rectangle"><transform name="to_world"><rotate z="1" angle="30"/></transform>{aniso}</shape>"#),
+    )
+    .unwrap();
+    let s = frame_s(&rect, Vec3::new(0.1, 0.2, 2.0), -Vec3::Z);
+    let expected = Vec3::new(30f32.to_radians().cos(), 30f32.to_radians().sin(), 0.0);
+    assert!((s - expected).length() < 1e-5, "rectangle: {s}");
+
+    let sphere = load_in(
+        dir.path(),
+        &format!(
+            r#"<shape type="sphere"><transform name="to_world"><rotate x="1" angle="90"/></transform>{aniso}</shape>"#
+        ),
+    )
+    .unwrap();
+    // Local z is world −y after the turn: at the point (1, 0, 0) longitude grows along the
+    // turned local y, i.e. world +z.
+    let s = frame_s(&sphere, Vec3::new(3.0, 0.0, 0.0), -Vec3::X);
+    assert!((s - Vec3::Z).length() < 1e-4, "sphere: {s}");
+
+    // A square whose u grows along world y.
+    let obj = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 0 1\nvt 1 1\nvt 1 0\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
+    std::fs::write(dir.path().join("turned.obj"), obj).unwrap();
+    let mesh = load_in(
+        dir.path(),
+        &format!(r#"<shape type="obj"><string name="filename" value="turned.obj"/>{aniso}</shape>"#),
+    )
+    .unwrap();
+    for (x, y) in [(0.5f32, -0.5f32), (-0.5, 0.5)] {
+        let s = frame_s(&mesh, Vec3::new(x, y, 2.0), -Vec3::Z);
+        assert!((s - Vec3::Y).length() < 1e-5, "mesh at ({x}, {y}): {s}");
+    }
+}

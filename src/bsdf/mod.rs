@@ -309,6 +309,18 @@ impl Bsdf {
         )
     }
 
+    /// True when the model depends on the tangent direction (different roughness along the
+    /// tangent and the bitangent): only then does the shading frame's orientation matter.
+    pub fn is_anisotropic(&self) -> bool {
+        match self {
+            Bsdf::OneSided(b) => b.is_anisotropic(),
+            Bsdf::Ward(b) => b.alpha_x != b.alpha_y,
+            Bsdf::RoughConductor(b) => b.distribution.alpha_u != b.distribution.alpha_v,
+            Bsdf::RoughDielectric(b) => b.distribution.alpha_u != b.distribution.alpha_v,
+            _ => false,
+        }
+    }
+
     /// True when the model has a delta lobe beside a non-delta one (smooth plastic): its
     /// samples are delta or not one by one ([`BsdfSample::delta`]), while [`Bsdf::is_delta`] is
     /// false. Strategies that class vertices by their surface rather than by their sample

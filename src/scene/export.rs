@@ -432,30 +432,27 @@ fn material_xml(
             optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
             roughness_props(&d.roughness(), OUTER)
         ),
-        MaterialDesc::RoughPlastic(p) => twosided(format!(
-            "        <bsdf type=\"roughplastic\">\n            <float name=\"int_ior\" value=\"{}\"/>\n            \
-             <float name=\"ext_ior\" value=\"1\"/>\n{}{}            <boolean name=\"nonlinear\" value=\"{}\"/>\n{}        </bsdf>\n",
-            p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
-            files.color(
-                "diffuse_reflectance",
-                p.diffuse_reflectance.as_ref().unwrap_or(&Color::Rgb(Fixed([0.5; 3]))),
-                INNER
+        MaterialDesc::RoughPlastic(p) => twosided(plastic_xml(
+            "roughplastic",
+            (
+                p.ior,
+                p.diffuse_reflectance.as_ref(),
+                p.specular_reflectance,
+                p.nonlinear,
             ),
-            optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
-            p.nonlinear.unwrap_or(false),
-            roughness_props(&p.roughness(), INNER)
+            &roughness_props(&p.roughness(), INNER),
+            files,
         )),
-        MaterialDesc::Plastic(p) => twosided(format!(
-            "        <bsdf type=\"plastic\">\n            <float name=\"int_ior\" value=\"{}\"/>\n            \
-             <float name=\"ext_ior\" value=\"1\"/>\n{}{}            <boolean name=\"nonlinear\" value=\"{}\"/>\n        </bsdf>\n",
-            p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
-            files.color(
-                "diffuse_reflectance",
-                p.diffuse_reflectance.as_ref().unwrap_or(&Color::Rgb(Fixed([0.5; 3]))),
-                INNER
+        MaterialDesc::Plastic(p) => twosided(plastic_xml(
+            "plastic",
+            (
+                p.ior,
+                p.diffuse_reflectance.as_ref(),
+                p.specular_reflectance,
+                p.nonlinear,
             ),
-            optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
-            p.nonlinear.unwrap_or(false),
+            "",
+            files,
         )),
         MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
@@ -464,6 +461,28 @@ fn material_xml(
         }
     };
     Ok(bsdf)
+}
+
+/// A `plastic` or `roughplastic` BSDF (nested in `twosided`): the coating's index, the colours,
+/// `nonlinear`, then `extra` (the roughness).
+fn plastic_xml(
+    kind: &str,
+    (ior, diffuse, specular, nonlinear): (Option<f64>, Option<&Color>, Option<Triple>, Option<bool>),
+    extra: &str,
+    files: &Files,
+) -> String {
+    format!(
+        "        <bsdf type=\"{kind}\">\n{INNER}<float name=\"int_ior\" value=\"{}\"/>\n{INNER}\
+         <float name=\"ext_ior\" value=\"1\"/>\n{}{}{INNER}<boolean name=\"nonlinear\" value=\"{}\"/>\n{extra}        </bsdf>\n",
+        ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
+        files.color(
+            "diffuse_reflectance",
+            diffuse.unwrap_or(&Color::Rgb(Fixed([0.5; 3]))),
+            INNER
+        ),
+        optional_rgb("specular_reflectance", specular, INNER),
+        nonlinear.unwrap_or(false),
+    )
 }
 
 /// Indentation of the properties of a top-level BSDF and of one nested in `twosided`.

@@ -297,6 +297,9 @@ impl Scene {
         let i = hit.prim as usize;
         let attrs = &self.attrs[i];
         let mut bary = Vec2::ZERO;
+        // The tangent orients anisotropic models only; isotropic ones keep the frame they always
+        // had (so that their images stay bit-identical to earlier versions).
+        let anisotropic = self.materials[attrs.material as usize].bsdf.is_anisotropic();
         let (p, ng, ns, tangent) = match self.primitives[i] {
             Primitive::Triangle([a, b, c]) => {
                 bary = pull_off_edges(hit.b);
@@ -316,13 +319,26 @@ impl Scene {
                     }
                     None => ng,
                 };
-                (p, ng, ns, b - a)
+                let tangent = if anisotropic {
+                    triangle_dp_du([a, b, c], attrs.uv)
+                } else {
+                    b - a
+                };
+                (p, ng, ns, tangent)
             }
             Primitive::Sphere { center, radius } => {
                 let dir = (ray.at(hit.t) - center).normalize();
                 let n = dir;
-                // Tangent along increasing longitude around the sphere's y axis.
-                (center + radius * dir, n, n, Vec3::new(-dir.z, 0.0, dir.x))
+                // Anisotropic models: the tangent along increasing u (longitude about the
+                // sphere's own z axis), Mitsuba's dp/du; otherwise longitude about world y.
+                let tangent = match attrs.uv {
+                    UvMap::Sphere { world_to_local } if anisotropic => {
+                        let l = world_to_local * dir;
+                        world_to_local.transpose() * Vec3::new(-l.y, l.x, 0.0)
+                    }
+                    _ => Vec3::new(-dir.z, 0.0, dir.x),
+                };
+                (center + radius * dir, n, n, tangent)
             }
         };
         SurfaceHit {
@@ -412,4 +428,19 @@ fn bounds_of(primitives: &[Primitive]) -> (Vec3, Vec3) {
         hi = hi.max(b);
     }
     if lo.x > hi.x { (Vec3::ZERO, Vec3::ONE) } else { (lo, hi) }
+}
+
+/// The direction of ∂p/∂u on triangle a b c, which orients the shading frame (anisotropic
+/// models follow it): from the vertices' texture coordinates when they have some and they are
+/// not degenerate, otherwise b − a (∂p/∂u of the barycentric parameterization), as Mitsuba.
+#[inline]
+fn triangle_dp_du([a, b, c]: [Vec3; 3], uv: UvMap) -> Vec3 {
+    if let UvMap::Vertices([ta, tb, tc]) = uv {
+        let (d1, d2) = (tb - ta, tc - ta);
+        let det = d1.x * d2.y - d1.y * d2.x;
+        if det.abs() > 1e-12 {
+            return ((b - a) * d2.y - (c - a) * d1.y) / det;
+        }
+    }
+    b - a
 }

@@ -181,6 +181,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
         bsdf_ids: BTreeMap::new(),
         emitter_ids: BTreeMap::new(),
         texture_ids: BTreeMap::new(),
+        sampler_ids: std::collections::BTreeSet::new(),
     };
     let imported = r.scene(doc.root_element())?;
     if let Some((name, _)) = params.iter().find(|(name, _)| !used.borrow().contains(name)) {
@@ -234,6 +235,8 @@ struct Reader<'a, 'i> {
     emitter_ids: BTreeMap<String, crate::scene::desc::EmissionDesc>,
     /// Each top-level `<texture id>`, for BSDFs to `<ref>`.
     texture_ids: BTreeMap<String, crate::scene::desc::TextureDesc>,
+    /// Each top-level `<sampler id>`, which a sensor may `<ref>` (and we ignore).
+    sampler_ids: std::collections::BTreeSet<String>,
 }
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -409,6 +412,11 @@ impl<'a, 'i> Reader<'a, 'i> {
         let elements: Vec<Node> = root.children().filter(Node::is_element).collect();
         // Named textures, BSDFs and area emitters first, so that a <ref> may precede the
         // definition it names.
+        for &n in elements.iter().filter(|n| n.has_tag_name("sampler")) {
+            if let Some(id) = self.attr(n, "id")? {
+                self.sampler_ids.insert(id);
+            }
+        }
         for &n in elements.iter().filter(|n| n.has_tag_name("texture")) {
             let Some(id) = self.attr(n, "id")? else {
                 return Err(self.err(n, "a top-level <texture> needs an `id` for BSDFs to <ref> it"));
@@ -545,6 +553,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             bsdf_ids: std::mem::take(&mut self.bsdf_ids),
             emitter_ids: std::mem::take(&mut self.emitter_ids),
             texture_ids: std::mem::take(&mut self.texture_ids),
+            sampler_ids: std::mem::take(&mut self.sampler_ids),
         };
         let read = inner.scene_elements(doc.root_element(), parts);
         self.defaults = inner.defaults;
@@ -553,6 +562,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         self.bsdf_ids = inner.bsdf_ids;
         self.emitter_ids = inner.emitter_ids;
         self.texture_ids = inner.texture_ids;
+        self.sampler_ids = inner.sampler_ids;
         self.including = inner.including;
         self.including.pop();
         read?;

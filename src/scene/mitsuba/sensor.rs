@@ -50,7 +50,15 @@ impl<'a, 'i> Reader<'a, 'i> {
                     (width, height) = (Some(w), Some(h));
                 }
                 "sampler" => self.warn(c, "ignored: the experiment file sets the samples per pixel"),
-                other => return Err(self.err(c, format!("unsupported element <{other}> in a sensor (film, sampler)"))),
+                "ref" if c.attribute("id").is_some_and(|id| self.sampler_ids.contains(id)) => {
+                    self.warn(c, "ignored: the experiment file sets the samples per pixel")
+                }
+                other => {
+                    return Err(self.err(
+                        c,
+                        format!("unsupported element <{other}> in a sensor (film, sampler, a <ref> to a sampler)"),
+                    ));
+                }
             }
         }
         self.finish(&o)?;

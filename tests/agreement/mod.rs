@@ -1,0 +1,31 @@
+//! Comparing strategies by their image means: the helper `tests/environment.rs` and
+//! `tests/plastic.rs` share.
+
+use photon_bench::film::Film;
+use photon_bench::scene::Scene;
+use photon_bench::strategy;
+
+/// Mean (over 6 seeds) of the image-mean of r + g + b that strategy `kind` with `params`
+/// renders at `spp`, and its standard error; the strategy must accept the scene.
+pub fn image_mean(scene: &Scene, kind: &str, params: &str, spp: u32) -> (f64, f64) {
+    let v: Vec<f64> = (0..6u64)
+        .map(|seed| {
+            let mut s = strategy::build(kind, toml::from_str(params).unwrap()).unwrap();
+            strategy::check_scene(&*s, scene).unwrap();
+            s.prepare(scene, seed).unwrap();
+            let mut film = Film::new(scene.camera.width, scene.camera.height);
+            s.render_pass(scene, seed, 0..spp, &mut film);
+            let img = film.image();
+            img.pixels.iter().map(|p| f64::from(p.x + p.y + p.z)).sum::<f64>() / img.pixels.len() as f64
+        })
+        .collect();
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
+    (m, (var / v.len() as f64).sqrt())
+}
+
+/// Asserts that an unbiased strategy's mean agrees with the baseline's within 4 standard errors.
+pub fn assert_agrees(kind: &str, (m, se): (f64, f64), (m0, se0): (f64, f64)) {
+    let z = (m - m0) / (se * se + se0 * se0).sqrt();
+    assert!(z.abs() < 4.0, "{kind}: {m} ± {se} vs path {m0} ± {se0} (z = {z:.2})");
+}
