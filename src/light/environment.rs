@@ -142,6 +142,18 @@ impl EnvMap {
         self.cells.pmf(j * self.width as usize + i) * w * (h - 1.0)
     }
 
+    /// Solid-angle density of [`Environment::sample`] toward unit direction `d` of the map's
+    /// frame, whose (u, v) is `uv`.
+    #[inline]
+    fn pdf_w(&self, d: Vec3, uv: Vec2) -> f32 {
+        let sin_t = (1.0 - d.y * d.y).max(0.0).sqrt();
+        if sin_t > 0.0 {
+            self.pdf_uv(uv) / (2.0 * PI * PI * sin_t)
+        } else {
+            0.0
+        }
+    }
+
     /// Mean radiance over the sphere of directions, ∫ L dω / 4π: the bilinear function is
     /// linear in u across a cell (its midpoint in u is exact) and is integrated against sin θ
     /// over 16 sub-bands of each row of cells.
@@ -234,10 +246,12 @@ impl Environment {
                 // The density and radiance of the direction as returned (rounded to f32), so
                 // that they agree bit for bit with `pdf` and `le` there, also on a cell border.
                 let wi = (self.local_to_world * d).normalize();
-                let pdf_w = self.pdf(wi);
+                let local = self.world_to_local * wi;
+                let uv = direction_to_uv(local);
+                let pdf_w = m.pdf_w(local, uv);
                 (pdf_w > 0.0).then(|| EnvSample {
                     wi,
-                    le: self.le(wi),
+                    le: m.eval(uv) * self.scale,
                     pdf_w,
                 })
             }
@@ -251,11 +265,7 @@ impl Environment {
             Radiance::Constant(_) => 1.0 / (4.0 * PI),
             Radiance::Map(m) => {
                 let d = self.world_to_local * w;
-                let sin_t = (1.0 - d.y * d.y).max(0.0).sqrt();
-                if sin_t <= 0.0 {
-                    return 0.0;
-                }
-                m.pdf_uv(direction_to_uv(d)) / (2.0 * PI * PI * sin_t)
+                m.pdf_w(d, direction_to_uv(d))
             }
         }
     }

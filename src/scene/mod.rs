@@ -142,6 +142,8 @@ pub struct Scene {
     pub environment_power_share: f32,
     pub user_paths: Vec<UserPath>,
     pub accel: Accel,
+    /// The bounding box of every primitive, computed once ([`Scene::bounds`]).
+    bounds: (Vec3, Vec3),
 }
 
 /// A ray's hit on a surface, with its local shading frame.
@@ -240,10 +242,10 @@ impl Scene {
         }
         let weights: Vec<f32> = lights.iter().map(|l| luminance(l.power()).max(0.0)).collect();
         let area_power: f32 = weights.iter().sum();
-        let environment_power = environment.as_ref().map_or(0.0, |e| {
-            let (lo, hi) = bounds_of(&primitives);
-            e.power(0.5 * (hi - lo).length())
-        });
+        let bounds = bounds_of(&primitives);
+        let environment_power = environment
+            .as_ref()
+            .map_or(0.0, |e| e.power(0.5 * (bounds.1 - bounds.0).length()));
         let light_selection = match Distribution1D::new(&weights) {
             Some(d) => d,
             // Only the environment emits: the table is never read (its share is 1).
@@ -275,6 +277,7 @@ impl Scene {
             environment_power_share,
             user_paths,
             accel,
+            bounds,
         })
     }
 
@@ -407,7 +410,7 @@ impl Scene {
     /// The bounding box of every primitive (lower, upper corner); the unit cube for a scene
     /// without primitives.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        bounds_of(&self.primitives)
+        self.bounds
     }
 
     /// Total emitted power of all lights, per channel.
