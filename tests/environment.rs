@@ -248,7 +248,7 @@ fn mitsuba_environment_emitters_are_imported() {
     .unwrap();
     let env = constant.environment.as_ref().expect("an environment");
     assert_eq!(env.le(Vec3::Y), Vec3::new(0.5, 1.0, 2.0));
-    assert!(constant.lights.is_empty() && constant.environment_power_share == 1.0);
+    assert!(constant.lights.is_empty() && constant.environment_power_share() == 1.0);
 
     let map = load_xml(&xml(
         r#"<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="3"/>

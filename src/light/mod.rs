@@ -15,6 +15,7 @@
 //! ([`crate::scene::light_selection`], which reads the scene). What does not: the scene's list of lights (a [`crate::scene::Scene`] field)
 //! and any integrator logic.
 
+pub mod delta;
 pub mod environment;
 pub mod sphere_cone;
 

@@ -9,13 +9,15 @@
 //! emitted photon of a light starts with the same power, and the expected sum of the initial
 //! powers is exactly the total emitted power Φ.
 //!
-//! A scene's environment (light from infinitely far away) is chosen with its share of the power
-//! (`Scene::environment_power_share`, the area lights sharing the rest as above). Its photons
-//! come from a disc of the scene's bounding radius R facing a direction ω drawn from the
-//! environment's importance sampling, placed at distance R from the scene's centre toward ω,
-//! and travel along −ω [the construction of pbrt-v3's `InfiniteAreaLight::Sample_Le`]; a photon
-//! carries ΔΦ = L(ω) π R² / (p_env · p(ω) · N): parallel light through the disc, which covers
-//! the whole scene as seen from ω.
+//! Every emitter competes in the same selection ∝ power (`Scene::light_selection`: area
+//! lights, then delta lights, then the environment). A scene's environment (light from
+//! infinitely far away) sends its photons from a disc of the scene's bounding radius R facing a
+//! direction ω drawn from the environment's importance sampling, placed at distance R from the
+//! scene's centre toward ω, and travelling along −ω [the construction of pbrt-v3's
+//! `InfiniteAreaLight::Sample_Le`]; a photon carries ΔΦ = L(ω) π R² / (p_env · p(ω) · N):
+//! parallel light through the disc, which covers the whole scene as seen from ω. Point, spot
+//! and directional lights emit as [`crate::light::delta`] says, ΔΦ = (their sample's power) /
+//! (p_light · N).
 //!
 //! **Scattering.** At each hit the BSDF is sampled with [`TransportMode::Importance`]; the
 //! photon power is multiplied by the weight w = f_s |cos θi| / p_ω (times Veach's adjoint
@@ -52,6 +54,7 @@ use crate::geometry::{Frame, Ray, spawn_ray};
 use crate::sampling::stream;
 use crate::sampling::{Rng, sample_concentric_disk, sample_cosine_hemisphere};
 use crate::scene::Scene;
+use crate::scene::light_selection::Emitter;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -251,13 +254,40 @@ pub struct TracedPath {
 fn environment_photon(scene: &Scene, p_env: f32, emitted: u64, rng: &mut Rng) -> Option<(Ray, Vec3)> {
     let env = scene.environment.as_ref()?;
     let s = env.sample(rng.uniform2())?;
-    let (lo, hi) = scene.bounds();
-    let (center, radius) = (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(f32::MIN_POSITIVE));
+    let (center, radius) = scene.bounding_sphere();
     let disc = sample_concentric_disk(rng.uniform2()) * radius;
     let frame = Frame::from_normal(s.wi);
     let origin = center + radius * s.wi + frame.to_world(Vec3::new(disc.x, disc.y, 0.0));
     let power = s.le * (PI * radius * radius / (p_env * s.pdf_w * emitted as f32));
     (power.is_finite() && power.max_element() > 0.0).then(|| (Ray::new(origin, -s.wi), power))
+}
+
+/// A photon from delta light `i` picked with probability `pmf` (module doc); `None` where the
+/// sample carries nothing.
+fn delta_photon(scene: &Scene, i: usize, pmf: f32, emitted: u64, rng: &mut Rng) -> Option<(Ray, Vec3)> {
+    let e = scene.delta_lights[i].emit(rng.uniform2(), scene.bounding_sphere())?;
+    let power = e.power / (pmf * emitted as f32);
+    power.is_finite().then(|| (Ray::new(e.origin, e.dir), power))
+}
+
+/// A photon from area light `i` picked with probability `pmf`: a uniform point, a
+/// cosine-distributed direction about the side it leaves from; `Err` with the photon's power
+/// when the sampled direction is degenerate (the photon still counts as emitted).
+fn area_photon(scene: &Scene, i: usize, pmf: f32, emitted: u64, rng: &mut Rng) -> Result<(Ray, Vec3), Vec3> {
+    let light = &scene.lights[i];
+    let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
+    let mut n = lp.n;
+    let u_side = rng.uniform();
+    if light.emission.two_sided && u_side < 0.5 {
+        n = -n;
+    }
+    let local = sample_cosine_hemisphere(rng.uniform2());
+    let dir = Frame::from_normal(n).to_world(local);
+    let power = light.power() / (pmf * emitted as f32);
+    if local.z <= 0.0 || !power.is_finite() {
+        return Err(power);
+    }
+    Ok((spawn_ray(lp.p, lp.n, dir), power))
 }
 
 /// Traces one photon path with the random numbers of `rng` — emission, scattering in
@@ -273,37 +303,19 @@ pub fn trace_photon_path(
     mut store: impl FnMut(&PhotonHit),
 ) -> TracedPath {
     let mut out = TracedPath::default();
-    // Emission: light ∝ power, point uniform, direction cosine-weighted (module doc).
-    let p_env = scene.environment_power_share;
-    let u_light = rng.uniform();
-    let (mut ray, mut power) = if p_env > 0.0 && (u_light < p_env || scene.lights.is_empty()) {
-        match environment_photon(scene, p_env, emitted, rng) {
-            Some(emission) => emission,
-            None => return out,
-        }
-    } else {
-        let u_light = if p_env > 0.0 {
-            ((u_light - p_env) / (1.0 - p_env)).min(1.0 - f32::EPSILON / 2.0)
-        } else {
-            u_light
-        };
-        let (light_index, pmf, _) = scene.light_selection.sample(u_light);
-        let pmf = if p_env > 0.0 { pmf * (1.0 - p_env) } else { pmf };
-        let light = &scene.lights[light_index];
-        let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
-        let mut n = lp.n;
-        let u_side = rng.uniform();
-        if light.emission.two_sided && u_side < 0.5 {
-            n = -n;
-        }
-        let local = sample_cosine_hemisphere(rng.uniform2());
-        let dir = Frame::from_normal(n).to_world(local);
-        let power = light.power() / (pmf * emitted as f32);
-        if local.z <= 0.0 || !power.is_finite() {
+    // Emission: an emitter ∝ power, then as the module doc says for its kind.
+    let (i, pmf, _) = scene.light_selection.sample(rng.uniform());
+    let emission = match scene.emitter(i) {
+        Emitter::Area(i) => area_photon(scene, i, pmf, emitted, rng),
+        Emitter::Delta(i) => delta_photon(scene, i, pmf, emitted, rng).ok_or(Vec3::ZERO),
+        Emitter::Environment => environment_photon(scene, pmf, emitted, rng).ok_or(Vec3::ZERO),
+    };
+    let (mut ray, mut power) = match emission {
+        Ok(e) => e,
+        Err(power) => {
             out.emitted_power = power;
             return out;
         }
-        (spawn_ray(lp.p, lp.n, dir), power)
     };
     out.emitted_power = power;
 

@@ -237,6 +237,9 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             );
         }
     }
+    for l in &desc.lights {
+        x.push_str(&delta_light_xml(l));
+    }
     let _ = writeln!(x, "</scene>");
     if !desc.user_paths.is_empty() {
         warnings.push(format!(
@@ -245,6 +248,50 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         ));
     }
     Ok((x, warnings))
+}
+
+/// A point, spot or directional light as Mitsuba's emitter of the same name (a spot through a
+/// `lookat` whose up is any vector off its axis: the spot is symmetric about it).
+fn delta_light_xml(l: &desc::LightDesc) -> String {
+    match l {
+        desc::LightDesc::Point(p) => format!(
+            "    <emitter type=\"point\">\n        <point name=\"position\" value=\"{}\"/>\n        \
+             <rgb name=\"intensity\" value=\"{}\"/>\n    </emitter>\n",
+            nums(&p.position.0),
+            nums(&p.intensity.0)
+        ),
+        desc::LightDesc::Directional(d) => format!(
+            "    <emitter type=\"directional\">\n        <vector name=\"direction\" value=\"{}\"/>\n        \
+             <rgb name=\"irradiance\" value=\"{}\"/>\n    </emitter>\n",
+            nums(&d.direction.0),
+            nums(&d.irradiance.0)
+        ),
+        desc::LightDesc::Spot(s) => {
+            let origin = dvec(s.position);
+            let target = match (s.target, s.direction) {
+                (Some(t), _) => dvec(t),
+                (None, Some(d)) => origin + dvec(d),
+                (None, None) => origin - DVec3::Y,
+            };
+            let axis = (target - origin).normalize_or_zero();
+            let up = if axis.y.abs() > 0.9 { DVec3::X } else { DVec3::Y };
+            let angle = |name: &str, v: Option<f64>| {
+                v.map(|v| format!("        <float name=\"{name}\" value=\"{v}\"/>\n"))
+                    .unwrap_or_default()
+            };
+            format!(
+                "    <emitter type=\"spot\">\n        <transform name=\"to_world\">\n            \
+                 <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n        </transform>\n        \
+                 <rgb name=\"intensity\" value=\"{}\"/>\n{}{}    </emitter>\n",
+                nums(&origin.to_array()),
+                nums(&target.to_array()),
+                nums(&up.to_array()),
+                nums(&s.intensity.0),
+                angle("cutoff_angle", s.cutoff_angle),
+                angle("beam_width", s.beam_width)
+            )
+        }
+    }
 }
 
 fn dvec(v: Triple) -> DVec3 {

@@ -89,25 +89,28 @@ pub fn local_weight(light: &AreaLight, prim: &Primitive, r: &Receiver) -> f32 {
     le * solid_angle * cos_bound
 }
 
-/// Light selection at one receiver: built once per vertex, used to pick the light for
+/// Light selection at one receiver: built once per vertex, used to pick the emitter for
 /// next-event estimation there and, for MIS, to give the probability with which that same
 /// vertex would have picked a light that a BSDF-sampled ray from it hits. Small and `Copy`:
 /// the path keeps the previous vertex's one for the MIS weight. The local weights themselves
 /// live in a [`LocalWeights`] buffer owned by the caller, which [`LightContext::choose`] reads
 /// right after [`LightSampling::at`] filled it; [`LightContext::pmf`] recomputes the one weight
 /// it needs, bit for bit the same value.
+///
+/// Every selection picks among the scene's emitters in [`Scene::emitter`]'s order (area
+/// lights, delta lights, the environment), so a scene with area lights only selects exactly
+/// as it did before delta lights and environments existed.
 #[derive(Clone, Copy, Debug)]
 pub struct LightContext {
     /// The shading point; its normal and sidedness only with local selection (they are not
     /// needed otherwise and not computed).
     pub receiver: Receiver,
     sphere: SphereSampling,
-    /// The sum of the local weights of every light; `None` for power and uniform selection.
+    /// The sum of the local weights of every emitter; `None` for power and uniform selection.
     local_total: Option<f32>,
-    /// Every light with the same probability (Mitsuba 3's emitter selection).
+    /// Every emitter with the same probability (Mitsuba 3's emitter selection).
     uniform: bool,
-    /// Probability of picking the scene's environment rather than an area light (0 without
-    /// one); the area lights share the rest as the selection says.
+    /// Probability of picking the scene's environment (0 without one).
     environment: f32,
 }
 
@@ -116,11 +119,13 @@ pub struct LightContext {
 pub enum Emitter {
     /// Area light `i` of `Scene::lights`.
     Area(usize),
+    /// Delta light `i` of `Scene::delta_lights`.
+    Delta(usize),
     /// The scene's environment.
     Environment,
 }
 
-/// Scratch space for the local weights of every light at one receiver.
+/// Scratch space for the local weights of every emitter at one receiver.
 #[derive(Clone, Debug)]
 pub struct LocalWeights([f32; LOCAL_SELECTION_MAX_LIGHTS]);
 
@@ -130,10 +135,31 @@ impl Default for LocalWeights {
     }
 }
 
+/// An emitter's weight for [`LightSelection::Local`] at `r`, in the units of [`local_weight`]
+/// (luminance of the unoccluded irradiance, up to the cosine bound): a delta light's incident
+/// Y(I falloff / r²) or Y(E) times the receiver's cosine toward it; the environment's mean
+/// radiance over the hemisphere above the receiver (the sphere for a transmitting one).
+pub fn emitter_weight(scene: &Scene, emitter: Emitter, r: &Receiver) -> f32 {
+    match emitter {
+        Emitter::Area(i) => {
+            let light = &scene.lights[i];
+            local_weight(light, &scene.primitives[light.prim as usize], r)
+        }
+        Emitter::Delta(i) => scene.delta_lights[i].illuminate(r.p).map_or(0.0, |s| {
+            let cos = r.n.dot(s.wi);
+            let cos = if r.two_sided { cos.abs() } else { cos.max(0.0) };
+            luminance(s.li).max(0.0) * cos
+        }),
+        Emitter::Environment => scene.environment.as_ref().map_or(0.0, |e| {
+            luminance(e.mean_radiance()).max(0.0) * if r.two_sided { 2.0 * TAU } else { TAU }
+        }),
+    }
+}
+
 impl LightSampling {
     /// The light selection at a shading point `p`. Local selection builds the full receiver with
-    /// `receiver` and writes every light's weight into `weights` (O(#lights)); power selection
-    /// needs neither, so the per-vertex cost of the default stays a few instructions.
+    /// `receiver` and writes every emitter's weight into `weights` (O(#emitters)); power
+    /// selection needs neither, so the per-vertex cost of the default stays a few instructions.
     #[inline]
     pub fn at(
         &self,
@@ -142,24 +168,19 @@ impl LightSampling {
         receiver: impl FnOnce() -> Receiver,
         weights: &mut Option<LocalWeights>,
     ) -> LightContext {
-        if self.selection == LightSelection::Local && scene.lights.len() <= LOCAL_SELECTION_MAX_LIGHTS {
+        let count = scene.emitter_count();
+        if self.selection == LightSelection::Local && count <= LOCAL_SELECTION_MAX_LIGHTS {
             let r = receiver();
             let w = weights.get_or_insert_with(LocalWeights::default);
             let mut total = 0.0f32;
-            for (wi, light) in w.0.iter_mut().zip(&scene.lights) {
-                *wi = local_weight(light, &scene.primitives[light.prim as usize], &r);
+            for (i, wi) in w.0[..count].iter_mut().enumerate() {
+                *wi = emitter_weight(scene, scene.emitter(i), &r);
                 total += *wi;
             }
-            // The environment's weight in the same units, Y(L̄) · Ω · c̄: the mean radiance over
-            // the hemisphere above the receiver (the sphere for a transmitting one).
-            let environment = scene.environment.as_ref().map_or(0.0, |e| {
-                let w_env = luminance(e.mean_radiance()).max(0.0) * if r.two_sided { 2.0 * TAU } else { TAU };
-                if w_env + total > 0.0 {
-                    w_env / (w_env + total)
-                } else {
-                    0.0
-                }
-            });
+            let environment = match scene.environment_index() {
+                Some(i) if total > 0.0 => w.0[i] / total,
+                _ => 0.0,
+            };
             return LightContext {
                 receiver: r,
                 sphere: self.sphere,
@@ -171,8 +192,8 @@ impl LightSampling {
         let uniform = self.selection == LightSelection::Uniform;
         let environment = match (&scene.environment, uniform) {
             (None, _) => 0.0,
-            (Some(_), true) => 1.0 / (scene.lights.len() + 1) as f32,
-            (Some(_), false) => scene.environment_power_share,
+            (Some(_), true) => 1.0 / count as f32,
+            (Some(_), false) => scene.environment_power_share(),
         };
         LightContext {
             receiver: Receiver {
@@ -189,40 +210,24 @@ impl LightSampling {
 }
 
 impl LightContext {
-    /// Picks an emitter with `u ∈ [0, 1)`: the environment or an area light, and its
-    /// probability; `None` when nothing can contribute at the receiver (local selection only).
-    /// `weights` must be the buffer [`LightSampling::at`] filled for this context.
+    /// Picks an emitter with `u ∈ [0, 1)`, and its probability; `None` when nothing can
+    /// contribute at the receiver (local selection only). `weights` must be the buffer
+    /// [`LightSampling::at`] filled for this context.
     #[inline]
     pub fn choose(&self, scene: &Scene, weights: &Option<LocalWeights>, u: f32) -> Option<(Emitter, f32)> {
-        let p_env = self.environment;
-        if p_env <= 0.0 {
-            return self
-                .choose_area(scene, weights, u)
-                .map(|(i, pmf)| (Emitter::Area(i), pmf));
-        }
-        if u < p_env || scene.lights.is_empty() {
-            return Some((Emitter::Environment, p_env));
-        }
-        let u = ((u - p_env) / (1.0 - p_env)).min(1.0 - f32::EPSILON / 2.0);
-        self.choose_area(scene, weights, u)
-            .map(|(i, pmf)| (Emitter::Area(i), pmf * (1.0 - p_env)))
-    }
-
-    /// Picks an area light with `u ∈ [0, 1)`, by the selection alone.
-    #[inline]
-    fn choose_area(&self, scene: &Scene, weights: &Option<LocalWeights>, u: f32) -> Option<(usize, f32)> {
+        let count = scene.emitter_count();
         if self.uniform {
-            let n = scene.lights.len();
-            return (n > 0).then(|| (((u * n as f32) as usize).min(n - 1), 1.0 / n as f32));
+            let i = ((u * count as f32) as usize).min(count - 1);
+            return Some((scene.emitter(i), 1.0 / count as f32));
         }
         let (Some(total), Some(weights)) = (self.local_total, weights) else {
             let (i, pmf, _) = scene.light_selection.sample(u);
-            return Some((i, pmf));
+            return Some((scene.emitter(i), pmf));
         };
         if total <= 0.0 {
             return None;
         }
-        let w = &weights.0[..scene.lights.len()];
+        let w = &weights.0[..count];
         let target = u * total;
         let mut acc = 0.0f32;
         let mut last = None;
@@ -236,25 +241,20 @@ impl LightContext {
             }
         }
         // Rounding may leave u · total at or past the last partial sum: the last light takes it.
-        last.map(|i| (i, w[i] / total))
+        last.map(|i| (scene.emitter(i), w[i] / total))
     }
 
     /// Probability that [`LightContext::choose`] picks area light `i`.
     #[inline]
     pub fn pmf(&self, scene: &Scene, i: usize) -> f32 {
-        let area = match self.local_total {
-            None if self.uniform => 1.0 / scene.lights.len() as f32,
+        match self.local_total {
+            None if self.uniform => 1.0 / scene.emitter_count() as f32,
             None => scene.light_selection.pmf(i),
             Some(total) if total > 0.0 => {
                 let light = &scene.lights[i];
                 local_weight(light, &scene.primitives[light.prim as usize], &self.receiver) / total
             }
             Some(_) => 0.0,
-        };
-        if self.environment > 0.0 {
-            area * (1.0 - self.environment)
-        } else {
-            area
         }
     }
 

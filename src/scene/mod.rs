@@ -24,11 +24,13 @@ use crate::camera::Camera;
 use crate::color::luminance;
 use crate::error::Result;
 use crate::geometry::{Accel, Frame, Hit, Primitive, Ray};
+use crate::light::delta::DeltaLight;
 use crate::light::environment::Environment;
 use crate::light::{AreaLight, Emission};
 use crate::sampling::Distribution1D;
 use crate::texture::Texture;
 use glam::{Mat3, Vec2, Vec3};
+use light_selection::Emitter;
 use std::borrow::Cow;
 use std::f32::consts::PI;
 use std::path::PathBuf;
@@ -133,17 +135,24 @@ pub struct Scene {
     pub lights: Vec<AreaLight>,
     /// Light index of each primitive (`u32::MAX` for none).
     light_of_prim: Vec<u32>,
-    /// Light selection among the area lights ∝ emitted power (luminance).
-    pub light_selection: Distribution1D,
+    /// Point, spot and directional lights (Mitsuba's `point`, `spot`, `directional`).
+    pub delta_lights: Vec<DeltaLight>,
     /// Light from infinitely far away (Mitsuba's `constant` and `envmap` emitters), if any.
     pub environment: Option<Environment>,
-    /// The environment's share of the scene's emitted power (0 without one): the probability
-    /// that selection by power picks it rather than an area light.
-    pub environment_power_share: f32,
+    /// Emitter selection ∝ emitted power (luminance) over every emitter in [`Scene::emitter`]'s
+    /// order: the area lights (so area light i is entry i), the delta lights, the environment.
+    pub light_selection: Distribution1D,
     pub user_paths: Vec<UserPath>,
     pub accel: Accel,
     /// The bounding box of every primitive, computed once ([`Scene::bounds`]).
     bounds: (Vec3, Vec3),
+}
+
+/// The emitters that are not shapes: at most one environment and any number of delta lights.
+#[derive(Clone, Debug, Default)]
+pub struct Emitters {
+    pub environment: Option<Environment>,
+    pub delta: Vec<DeltaLight>,
 }
 
 /// A ray's hit on a surface, with its local shading frame.
@@ -198,7 +207,7 @@ impl Scene {
         attrs: Vec<PrimAttrs>,
         user_paths: Vec<UserPath>,
     ) -> Result<Scene> {
-        Self::assemble_with_environment(
+        Self::assemble_with_emitters(
             name,
             source,
             content_hash,
@@ -207,13 +216,13 @@ impl Scene {
             primitives,
             attrs,
             user_paths,
-            None,
+            Emitters::default(),
         )
     }
 
-    /// [`Scene::assemble`] with light from infinitely far away.
+    /// [`Scene::assemble`] with emitters that are not shapes (delta lights, an environment).
     #[allow(clippy::too_many_arguments)]
-    pub fn assemble_with_environment(
+    pub fn assemble_with_emitters(
         name: String,
         source: PathBuf,
         content_hash: String,
@@ -222,7 +231,10 @@ impl Scene {
         primitives: Vec<Primitive>,
         attrs: Vec<PrimAttrs>,
         user_paths: Vec<UserPath>,
-        environment: Option<Environment>,
+        Emitters {
+            environment,
+            delta: delta_lights,
+        }: Emitters,
     ) -> Result<Scene> {
         assert_eq!(primitives.len(), attrs.len());
         let mut lights = Vec::new();
@@ -240,25 +252,17 @@ impl Scene {
                 }
             }
         }
-        let weights: Vec<f32> = lights.iter().map(|l| luminance(l.power()).max(0.0)).collect();
-        let area_power: f32 = weights.iter().sum();
         let bounds = bounds_of(&primitives);
-        let environment_power = environment
-            .as_ref()
-            .map_or(0.0, |e| e.power(0.5 * (bounds.1 - bounds.0).length()));
-        let light_selection = match Distribution1D::new(&weights) {
-            Some(d) => d,
-            // Only the environment emits: the table is never read (its share is 1).
-            None if environment_power > 0.0 => Distribution1D::new(&[1.0]).expect("one positive weight"),
-            None => crate::bail!(
+        let scene_radius = bounding_sphere(bounds).1;
+        let power = |p: Vec3| luminance(p).max(0.0);
+        let mut weights: Vec<f32> = lights.iter().map(|l| power(l.power())).collect();
+        weights.extend(delta_lights.iter().map(|l| power(l.power(scene_radius))));
+        weights.extend(environment.iter().map(|e| e.power(scene_radius).max(0.0)));
+        let Some(light_selection) = Distribution1D::new(&weights) else {
+            crate::bail!(
                 "{}: the scene has no light with positive power (add an `emission` to a shape)",
                 source.display()
-            ),
-        };
-        let environment_power_share = if environment_power > 0.0 {
-            environment_power / (environment_power + area_power)
-        } else {
-            0.0
+            )
         };
         let accel = Accel::build(&primitives);
         Ok(Scene {
@@ -272,9 +276,9 @@ impl Scene {
             attrs,
             lights,
             light_of_prim,
-            light_selection,
+            delta_lights,
             environment,
-            environment_power_share,
+            light_selection,
             user_paths,
             accel,
             bounds,
@@ -413,10 +417,63 @@ impl Scene {
         self.bounds
     }
 
-    /// Total emitted power of all lights, per channel.
+    /// Total emitted power of every emitter, per channel (for directional light and the
+    /// environment, what crosses the scene's bounding sphere, as their photons carry it).
     pub fn total_power(&self) -> Vec3 {
-        self.lights.iter().map(|l| l.power()).sum()
+        let radius = self.bounding_sphere().1;
+        let area: Vec3 = self.lights.iter().map(|l| l.power()).sum();
+        let delta: Vec3 = self.delta_lights.iter().map(|l| l.power(radius)).sum();
+        let environment = self
+            .environment
+            .as_ref()
+            .map_or(Vec3::ZERO, |e| e.mean_radiance() * (4.0 * PI * PI * radius * radius));
+        area + delta + environment
     }
+
+    /// The number of emitters [`Scene::emitter`] numbers: area lights, delta lights and the
+    /// environment.
+    #[inline]
+    pub fn emitter_count(&self) -> usize {
+        self.lights.len() + self.delta_lights.len() + usize::from(self.environment.is_some())
+    }
+
+    /// Emitter `i` in the order of [`Scene::light_selection`].
+    #[inline]
+    pub fn emitter(&self, i: usize) -> Emitter {
+        let areas = self.lights.len();
+        if i < areas {
+            Emitter::Area(i)
+        } else if i < areas + self.delta_lights.len() {
+            Emitter::Delta(i - areas)
+        } else {
+            Emitter::Environment
+        }
+    }
+
+    /// The index of the environment among the emitters, if there is one.
+    #[inline]
+    pub fn environment_index(&self) -> Option<usize> {
+        self.environment
+            .as_ref()
+            .map(|_| self.lights.len() + self.delta_lights.len())
+    }
+
+    /// The probability that selection by power picks the environment (0 without one).
+    #[inline]
+    pub fn environment_power_share(&self) -> f32 {
+        self.environment_index().map_or(0.0, |i| self.light_selection.pmf(i))
+    }
+
+    /// The scene's bounding sphere (centre, radius > 0): where directional and environment
+    /// photons come from.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        bounding_sphere(self.bounds)
+    }
+}
+
+/// The sphere around a bounding box (centre, radius > 0).
+fn bounding_sphere((lo, hi): (Vec3, Vec3)) -> (Vec3, f32) {
+    (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(f32::MIN_POSITIVE))
 }
 
 /// The bounding box of `primitives` (lower, upper corner); the unit cube when there are none.

@@ -60,6 +60,13 @@ pub trait Strategy: Send + Sync {
         false
     }
 
+    /// Whether the strategy renders point, spot and directional lights (a scene's
+    /// `delta_lights`), which only next-event estimation or paths starting on them can reach.
+    /// The others refuse such a scene ([`check_scene`]).
+    fn handles_delta_lights(&self) -> bool {
+        false
+    }
+
     /// Whether the strategy renders models with a delta lobe beside a non-delta one (Mitsuba's
     /// smooth `plastic`), i.e. treats each sample's `delta` flag rather than the surface's
     /// class. The others refuse such a scene ([`check_scene`]).
@@ -128,6 +135,16 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
         crate::bail!(
             "{}: strategy `{}` does not render environment light (the scene's `constant` or `envmap` \
              emitter) yet; strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            able.join(", ")
+        );
+    }
+    if !scene.delta_lights.is_empty() && !strategy.handles_delta_lights() {
+        let able = able(|s| s.handles_delta_lights());
+        crate::bail!(
+            "{}: strategy `{}` with these parameters does not render point, spot or directional lights \
+             (reached only by light sampling) yet; strategies that do: {}",
             scene.source.display(),
             strategy.kind(),
             able.join(", ")

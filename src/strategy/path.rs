@@ -17,6 +17,7 @@ use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray};
+use crate::light::delta::DeltaIncidence;
 use crate::light::{LightSampling, LightSelection, PointPdf, Receiver, SphereSampling};
 use crate::params::{Params, Range};
 use crate::sampling::{Rng, power_heuristic, sample_uniform_hemisphere, sample_uniform_sphere, uniform_sphere_pdf};
@@ -117,6 +118,10 @@ impl Strategy for Path {
 
     fn handles_environment(&self) -> bool {
         true
+    }
+
+    fn handles_delta_lights(&self) -> bool {
+        self.params.direct != Direct::Bsdf
     }
 
     fn kind(&self) -> &'static str {
@@ -258,6 +263,7 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
         Some((Emitter::Environment, pmf)) => {
             return environment_direct(scene, hit, bsdf, wo, u_point, pmf, direct, (sampler, vertex), tally);
         }
+        Some((Emitter::Delta(i), pmf)) => return delta_direct(scene, hit, bsdf, wo, i, pmf, tally),
         Some((Emitter::Area(i), pmf)) => (i, pmf),
     };
     let light = &scene.lights[light_index];
@@ -293,6 +299,65 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
         _ => 1.0,
     };
     f * le * (wi_local.z.abs() * weight / pdf_light_w)
+}
+
+/// The shadow ray from surface point `p` (geometric normal `ng`) toward a delta light: up to
+/// just short of a point or spot (a light on a surface is not hidden by it), to infinity for
+/// directional light.
+#[inline]
+pub(crate) fn delta_shadow_ray(p: Vec3, ng: Vec3, s: &DeltaIncidence) -> Ray {
+    let mut ray = spawn_ray(p, ng, s.wi);
+    ray.t_max = s.dist * (1.0 - 1e-5);
+    ray
+}
+
+/// Next-event estimation toward delta light `i`, picked with probability `pmf`: the one
+/// direction it arrives from and a shadow ray, f_s |cos θi| Li / pmf with no MIS weight (no
+/// BSDF sample can hit a delta light, so light sampling is the only technique).
+fn delta_direct(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    i: usize,
+    pmf: f32,
+    tally: &mut impl RayTally,
+) -> Vec3 {
+    let Some(s) = scene.delta_lights[i].illuminate(hit.p) else {
+        return Vec3::ZERO;
+    };
+    let wi_local = hit.frame.to_local(s.wi);
+    // As for BSDF-sampled directions: one the geometric normal disagrees with leaks light.
+    if s.wi.dot(hit.ng) * wi_local.z <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let f = bsdf.eval(wo, wi_local, TransportMode::Radiance);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let shadow = delta_shadow_ray(hit.p, hit.ng, &s);
+    tally.shadow(&shadow);
+    if !scene.unoccluded(&shadow) {
+        return Vec3::ZERO;
+    }
+    f * s.li * (wi_local.z.abs() / pmf)
+}
+
+/// The light every delta light sends to `hit` toward `wo` (each taken with probability 1):
+/// for estimators that find the other emitters by hitting them, as a gather ray through a
+/// glossy vertex does, since no BSDF sample can hit a delta light.
+pub(crate) fn all_delta_lights(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    tally: &mut impl RayTally,
+) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    for i in 0..scene.delta_lights.len() {
+        l += delta_direct(scene, hit, bsdf, wo, i, 1.0, tally);
+    }
+    l
 }
 
 /// Next-event estimation toward the environment, picked with probability `pmf`: a direction

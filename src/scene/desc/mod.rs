@@ -132,6 +132,23 @@
 //! scale = 1.0                       # optional, default 1
 //! transform = { rotate_y = 90 }     # optional; rotations only
 //!
+//! # Lights that are not shapes (optional, any number): Mitsuba's point, spot and directional.
+//! [[lights]]
+//! type = "point"
+//! position = [0.5, 1.2, 0.5]
+//! intensity = [2, 2, 2]             # radiant intensity in W/sr, each channel in [0, 1e10]
+//! [[lights]]
+//! type = "spot"
+//! position = [0.5, 1.2, 0.5]
+//! target = [0.5, 0, 0.5]            # a point on the axis, or direction = [0, -1, 0]
+//! intensity = [10, 10, 10]          # W/sr on the axis
+//! cutoff_angle = 30                 # optional: dark beyond this half-angle (degrees), default 20
+//! beam_width = 20                   # optional: full intensity inside it, default 3/4 of the cutoff
+//! [[lights]]
+//! type = "directional"
+//! direction = [-0.2, -1, 0.1]       # where the light travels
+//! irradiance = [1, 1, 1]            # W/m² on a surface facing the light
+//!
 //! # User paths for Metropolis photon sampling [Fan et al. 2005, §4.3] (optional).
 //! [[user_paths]]
 //! points = [[0.278, 0.5388, 0.28], [0.2, 0.2, 0.4], [0.1, 0.0, 0.3]]  # on a light, then surfaces
@@ -232,6 +249,52 @@ pub struct SceneDesc {
     pub user_paths: Vec<UserPathDesc>,
     /// Light from infinitely far away (optional).
     pub environment: Option<EnvironmentDesc>,
+    /// Point, spot and directional lights.
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
+}
+
+/// A light that is not a shape; `type` selects the variant (Mitsuba's emitters of the same
+/// names, with their parameter names).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum LightDesc {
+    Point(PointLightDesc),
+    Spot(SpotLightDesc),
+    Directional(DirectionalLightDesc),
+}
+
+/// Radiant intensity [W/sr] from a point, the same in every direction.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointLightDesc {
+    pub position: Triple,
+    pub intensity: Triple,
+}
+
+/// A spot: radiant intensity along its axis, a linear falloff in angle from `beam_width` to
+/// `cutoff_angle` (half-angles in degrees).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLightDesc {
+    pub position: Triple,
+    /// A point on the axis (give this or `direction`).
+    pub target: Option<Triple>,
+    /// The axis (give this or `target`).
+    pub direction: Option<Triple>,
+    pub intensity: Triple,
+    /// Default 20 degrees, as Mitsuba.
+    pub cutoff_angle: Option<f64>,
+    /// Default three quarters of the cutoff, as Mitsuba.
+    pub beam_width: Option<f64>,
+}
+
+/// Parallel light travelling along `direction`, with irradiance [W/m²] on a surface facing it.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalLightDesc {
+    pub direction: Triple,
+    pub irradiance: Triple,
 }
 
 /// Light from infinitely far away; `type` selects the variant.

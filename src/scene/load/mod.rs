@@ -21,6 +21,7 @@
 //! Mitsuba importer ([`super::mitsuba`]) and anything a renderer does with the scene.
 
 mod environment;
+mod lights;
 mod locate;
 mod mesh;
 mod mesh_formats;
@@ -40,8 +41,8 @@ use transform::*;
 use user_paths::*;
 use validate::*;
 
-use super::Scene;
 use super::desc::{self, SceneDesc, TransformDesc};
+use super::{Emitters, Scene};
 use crate::error::{Error, Result};
 use crate::geometry::Primitive;
 use crate::util::content_hash;
@@ -241,10 +242,15 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         )?),
         None => None,
     };
+    let delta = (desc.lights.iter().enumerate())
+        .map(|(i, l)| lights::delta_light(&ctx, i, l))
+        .collect::<Result<Vec<_>>>()?;
     let environment_emits = environment
         .as_ref()
         .is_some_and(|e| e.mean_radiance().max_element() > 0.0);
+    let delta_emits = delta.iter().any(|l| l.power(1.0).max_element() > 0.0);
     if !environment_emits
+        && !delta_emits
         && !b
             .attrs
             .iter()
@@ -252,7 +258,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
     {
         return Err(ctx.whole(
             "no light: give at least one shape `emission = { radiance = [r, g, b] }` with a \
-             positive channel, or an `[environment]`",
+             positive channel, a `[[lights]]` entry, or an `[environment]`",
         ));
     }
     let user_paths = user_paths(&ctx, &desc.user_paths, &b.primitives, &b.attrs)?;
@@ -289,7 +295,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         .filter(|p| matches!(p, Primitive::Triangle(_)))
         .count();
     stats.spheres = primitives.len() - stats.triangles;
-    let mut scene = Scene::assemble_with_environment(
+    let mut scene = Scene::assemble_with_emitters(
         name,
         path.to_path_buf(),
         hash,
@@ -298,7 +304,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         primitives,
         attrs,
         user_paths,
-        environment,
+        Emitters { environment, delta },
     )?;
     scene.params = source.sorted_params();
     Ok((scene, stats))

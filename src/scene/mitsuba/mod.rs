@@ -34,6 +34,8 @@
 //! | `bsdf` `twosided` around one reflecting BSDF | that BSDF: our reflection models are two-sided. A bare reflecting BSDF is one-sided in Mitsuba (black from behind), so it is read with a warning |
 //! | a shape without a BSDF | Mitsuba's default, `diffuse` 0.5 (one-sided: warned) |
 //! | `emitter` `area` in a shape: `radiance` | `emission = { radiance, two_sided = false }`: Mitsuba's area lights emit on the front side only, as ours do by default |
+//! | `emitter` `point` (`intensity`, `position` or `to_world`), `spot` (`intensity`, `cutoff_angle`, `beam_width`, `to_world`), `directional` (`irradiance`, `direction` or `to_world`) | `[[lights]]` of the same type, Mitsuba's defaults made explicit where they depend on nothing else |
+//! | `emitter` `constant` (`radiance`), `envmap` (`filename`, `scale`, `to_world`) | `[environment]` |
 //!
 //! Colours are `rgb` (three numbers, or one for grey), `float`, or a `spectrum`: one number (a
 //! constant spectrum), wavelength:value pairs in `value` or in a `filename` (`.spd`: a pair per
@@ -62,9 +64,10 @@
 //!
 //! Files: this one (the reader and the `<scene>` element), [`values`] (properties, colours,
 //! transforms), [`sensor`] (sensor and film), [`materials`] (BSDFs), [`textures`] (textures),
-//! [`shapes`] (shapes and area emitters). The importer produces a [`super::desc::SceneDesc`] and never calls the loader, which
+//! [`shapes`] (shapes), [`emitters`] (area emitters, the environment, delta lights). The importer produces a [`super::desc::SceneDesc`] and never calls the loader, which
 //! validates it like any TOML scene; writing XML lives in [`super::export`].
 
+mod emitters;
 mod materials;
 mod sensor;
 mod shapes;
@@ -197,6 +200,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
 struct SceneParts {
     camera: Option<desc::CameraDesc>,
     environment: Option<desc::EnvironmentDesc>,
+    lights: Vec<desc::LightDesc>,
     shapes: Vec<desc::ShapeDesc>,
     labels: Vec<String>,
     included: Vec<(std::path::PathBuf, Vec<u8>)>,
@@ -352,6 +356,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         let SceneParts {
             camera,
             environment,
+            lights,
             shapes,
             labels,
             included,
@@ -363,6 +368,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             )));
         };
         if environment.is_none()
+            && lights.is_empty()
             && !shapes.iter().any(|s| {
                 s.common()
                     .2
@@ -371,7 +377,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         {
             return Err(Error::new(format!(
                 "{}: no light: add <emitter type=\"area\"><rgb name=\"radiance\" value=\"…\"/></emitter> with a \
-                 positive channel to a <shape>, or an <emitter type=\"constant\"> or \"envmap\"",
+                 positive channel to a <shape>, or an <emitter type=\"point\">, \"spot\", \"directional\", \"constant\" or \"envmap\"",
                 self.file
             )));
         }
@@ -383,6 +389,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 shapes,
                 user_paths: Vec::new(),
                 environment,
+                lights,
             },
             shape_labels: labels,
             warnings: std::mem::take(&mut self.warnings),
@@ -487,10 +494,14 @@ impl<'a, 'i> Reader<'a, 'i> {
                     }
                     parts.environment = Some(self.environment(n)?);
                 }
+                "emitter" if matches!(n.attribute("type"), Some("point" | "spot" | "directional")) => {
+                    let light = self.delta_light(n)?;
+                    parts.lights.push(light);
+                }
                 "emitter" => {
                     return Err(self.err(
                         n,
-                        "unsupported emitter (photon-bench reads area emitters inside shapes, constant and envmap)",
+                        "unsupported emitter (photon-bench reads area, point, spot, directional, constant and envmap)",
                     ));
                 }
                 other => {

@@ -261,6 +261,10 @@ impl Strategy for PhotonGuided {
         true
     }
 
+    fn handles_delta_lights(&self) -> bool {
+        self.params.direct != Direct::Bsdf
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

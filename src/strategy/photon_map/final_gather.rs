@@ -9,7 +9,7 @@ use crate::geometry::{Ray, spawn_ray};
 use crate::photon::{EstimateParams, PhotonMap};
 use crate::sampling::{Rng, latin_hypercube};
 use crate::scene::{Scene, SurfaceHit};
-use crate::strategy::path::{BsdfSampling, Direct, estimate_direct, receiver};
+use crate::strategy::path::{BsdfSampling, Direct, all_delta_lights, estimate_direct, receiver};
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
@@ -230,6 +230,10 @@ impl Renderer<'_> {
                 delta_bounce(&hit, &bsdf, wo, rng)
             } else {
                 through_glossy = true;
+                // What the bounce cannot find by hitting it: point, spot and directional light.
+                if !scene.delta_lights.is_empty() {
+                    l += beta * all_delta_lights(scene, &hit, &bsdf, wo, &mut ());
+                }
                 glossy_bounce(&hit, &bsdf, wo, rng)
             };
             let Some((next, weight)) = step else {

@@ -275,6 +275,10 @@ impl Strategy for PhotonMapStrategy {
         true
     }
 
+    fn handles_delta_lights(&self) -> bool {
+        true
+    }
+
     fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {
         self.draw_figures(scene, seed)
     }

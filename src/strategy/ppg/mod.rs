@@ -332,6 +332,10 @@ impl Strategy for Ppg {
         true
     }
 
+    fn handles_delta_lights(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

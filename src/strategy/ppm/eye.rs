@@ -14,7 +14,8 @@
 //! [`DirectLight`]: with `"nee"` every non-delta vertex (the glossy ones passed and the visible
 //! point) samples one light ([`estimate_direct`], light sampling only) and photons count from
 //! their second hit on; with `"photons"` the visible point sees direct light through its
-//! photons too, and an emitter hit after a glossy bounce is added where it is hit.
+//! photons too, and an emitter hit after a glossy bounce is added where it is hit (point, spot
+//! and directional lights, which cannot be hit, are sampled at the glossy vertex instead).
 
 use super::DirectLight;
 use crate::bsdf::{SurfaceKind, TransportMode};
@@ -22,7 +23,7 @@ use crate::geometry::{Ray, spawn_ray};
 use crate::light::LightSampling;
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfaceHit};
-use crate::strategy::path::{BsdfSampling, Direct, estimate_direct, receiver};
+use crate::strategy::path::{BsdfSampling, Direct, all_delta_lights, estimate_direct, receiver};
 use glam::Vec3;
 
 /// A surface point of an eye path with its throughput.
@@ -70,6 +71,11 @@ pub fn trace_eye(scene: &Scene, mut ray: Ray, max_depth: u32, direct: DirectLigh
         let kind = bsdf.kind();
         if kind != SurfaceKind::Specular && direct == DirectLight::Nee {
             out.nee.push(here);
+        }
+        // With photons for direct light, emitters behind a glossy bounce are found by hitting
+        // them; point, spot and directional lights cannot be hit, so they are sampled here.
+        if kind == SurfaceKind::Glossy && direct == DirectLight::Photons && !scene.delta_lights.is_empty() {
+            out.emitted += beta * all_delta_lights(scene, &here.hit, &bsdf, wo, &mut ());
         }
         if kind == SurfaceKind::Diffuse {
             out.visible = Some(here);

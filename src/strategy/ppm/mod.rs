@@ -426,6 +426,10 @@ macro_rules! progressive_strategy {
                 true
             }
 
+            fn handles_delta_lights(&self) -> bool {
+                true
+            }
+
             fn params(&self) -> Vec<(String, String)> {
                 self.params.columns()
             }

@@ -1,0 +1,303 @@
+//! Lights described by a Dirac delta: a point (Mitsuba's `point`), a spot (`spot`) and parallel
+//! light from one direction (`directional`). No ray can hit them, so they are reached only by
+//! next-event estimation and by paths that start on them; a strategy that finds light only by
+//! hitting emitters (a BSDF-only path tracer) cannot render them and says so.
+//!
+//! Quantities as Mitsuba 3.9.1 defines them (`src/emitters/{point,spot,directional}.cpp`):
+//! - `point`: radiant intensity I [W/sr], the same in every direction; the irradiance at x is
+//!   I cos θ / r² and the emitted power 4π I.
+//! - `spot`: I times a falloff (1 inside the beam of half-angle θ_b, a linear ramp in angle
+//!   (θ_c − θ)/(θ_c − θ_b) down to 0 at the cutoff θ_c), so the power is
+//!   I ∫ falloff dω = 2π I (1 − (sin θ_c − sin θ_b)/(θ_c − θ_b)) (the ramp integrated by parts;
+//!   2π I (1 − cos θ_c) when θ_b = θ_c).
+//! - `directional`: irradiance E [W/m²] on a surface facing the light, arriving along one
+//!   direction; the power that reaches a scene of bounding radius R is π R² E.
+//!
+//! Photons (and light sub-paths) leave a point or a spot at its position: a point in a
+//! uniformly distributed direction, a spot uniformly inside its cutoff cone (Mitsuba's
+//! `sample_ray`), each carrying intensity × falloff / density. Directional photons start on a
+//! disc of radius R facing the light, one R beyond the scene's centre, as environment photons do.
+
+use crate::geometry::Frame;
+use crate::sampling::{sample_concentric_disk, sample_uniform_cone, sample_uniform_sphere, uniform_sphere_pdf};
+use glam::{Vec2, Vec3};
+use std::f32::consts::{PI, TAU};
+
+/// A light of zero extent in position or direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DeltaLight {
+    /// Radiant `intensity` I [W/sr] from `position` in every direction.
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Spot(Spot),
+    /// Parallel light travelling along unit `direction` with `irradiance` E [W/m²] on a
+    /// surface facing it.
+    Directional {
+        direction: Vec3,
+        irradiance: Vec3,
+    },
+}
+
+/// A spot light: intensity I along its unit `axis`, falling off linearly in angle between the
+/// beam and the cutoff half-angles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spot {
+    pub position: Vec3,
+    pub axis: Vec3,
+    pub intensity: Vec3,
+    /// Half-angle θ_c beyond which the spot is dark, in radians.
+    cutoff: f32,
+    cos_cutoff: f32,
+    /// cos θ_b of the beam's half-angle.
+    cos_beam: f32,
+    /// 1 / (θ_c − θ_b), infinite when the beam fills the cone (the ramp is then empty).
+    inv_transition: f32,
+}
+
+impl Spot {
+    /// A spot with half-angles in radians, `0 < beam <= cutoff < π/2` (checked by the loader).
+    pub fn new(position: Vec3, axis: Vec3, intensity: Vec3, cutoff: f32, beam: f32) -> Self {
+        Self {
+            position,
+            axis: axis.normalize(),
+            intensity,
+            cutoff,
+            cos_cutoff: cutoff.cos(),
+            cos_beam: beam.cos(),
+            inv_transition: 1.0 / (cutoff - beam),
+        }
+    }
+
+    /// The falloff factor in [0, 1] toward unit world direction `w` (Mitsuba's `falloff_curve`).
+    #[inline]
+    pub fn falloff(&self, w: Vec3) -> f32 {
+        let cos_theta = self.axis.dot(w);
+        if cos_theta <= self.cos_cutoff {
+            0.0
+        } else if cos_theta >= self.cos_beam {
+            1.0
+        } else {
+            ((self.cutoff - cos_theta.clamp(-1.0, 1.0).acos()) * self.inv_transition).clamp(0.0, 1.0)
+        }
+    }
+
+    /// ∫ falloff dω over the sphere (module doc).
+    pub fn falloff_solid_angle(&self) -> f32 {
+        let (c, b) = (self.cutoff as f64, self.cos_beam.clamp(-1.0, 1.0).acos() as f64);
+        let integral = if c - b > 1e-6 {
+            TAU as f64 * (1.0 - (c.sin() - b.sin()) / (c - b))
+        } else {
+            TAU as f64 * (1.0 - c.cos())
+        };
+        integral as f32
+    }
+}
+
+/// Light arriving at a receiver from a delta light.
+#[derive(Clone, Copy, Debug)]
+pub struct DeltaIncidence {
+    /// Unit direction from the receiver toward the light.
+    pub wi: Vec3,
+    /// Distance to the light; infinite for directional light.
+    pub dist: f32,
+    /// What multiplies f_s |cos θi| in the reflected radiance: I · falloff / r² for a point or
+    /// a spot, E for directional light.
+    pub li: Vec3,
+}
+
+/// A ray leaving a delta light and the power it carries per unit of selection probability
+/// and per photon (divide by p_light · N).
+#[derive(Clone, Copy, Debug)]
+pub struct DeltaEmission {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub power: Vec3,
+    /// Solid-angle density of `dir` at the light (points and spots; 0 for directional light,
+    /// whose direction is fixed and whose origin has area density 1 / π R²).
+    pub pdf_dir: f32,
+}
+
+impl DeltaLight {
+    /// The light reaching point `x` (before visibility); `None` where it sends nothing (outside
+    /// a spot's cone, at the light's own position).
+    #[inline]
+    pub fn illuminate(&self, x: Vec3) -> Option<DeltaIncidence> {
+        let toward = |position: Vec3| {
+            let d = position - x;
+            let dist2 = d.length_squared();
+            (dist2 > 0.0).then(|| (d / dist2.sqrt(), dist2))
+        };
+        let s = match *self {
+            DeltaLight::Point { position, intensity } => {
+                let (wi, dist2) = toward(position)?;
+                DeltaIncidence {
+                    wi,
+                    dist: dist2.sqrt(),
+                    li: intensity / dist2,
+                }
+            }
+            DeltaLight::Spot(spot) => {
+                let (wi, dist2) = toward(spot.position)?;
+                let falloff = spot.falloff(-wi);
+                if falloff <= 0.0 {
+                    return None;
+                }
+                DeltaIncidence {
+                    wi,
+                    dist: dist2.sqrt(),
+                    li: spot.intensity * (falloff / dist2),
+                }
+            }
+            DeltaLight::Directional { direction, irradiance } => DeltaIncidence {
+                wi: -direction,
+                dist: f32::INFINITY,
+                li: irradiance,
+            },
+        };
+        (s.li.max_element() > 0.0).then_some(s)
+    }
+
+    /// Emitted power Φ (module doc); `scene_radius` is R for directional light.
+    pub fn power(&self, scene_radius: f32) -> Vec3 {
+        match *self {
+            DeltaLight::Point { intensity, .. } => intensity * (4.0 * PI),
+            DeltaLight::Spot(spot) => spot.intensity * spot.falloff_solid_angle(),
+            DeltaLight::Directional { irradiance, .. } => irradiance * (PI * scene_radius * scene_radius),
+        }
+    }
+
+    /// A ray leaving the light with `u` (module doc); the scene's bounding sphere
+    /// (`center`, `radius`) places directional light. `None` where the sample carries nothing.
+    pub fn emit(&self, u: Vec2, (center, radius): (Vec3, f32)) -> Option<DeltaEmission> {
+        let e = match *self {
+            DeltaLight::Point { position, intensity } => DeltaEmission {
+                origin: position,
+                dir: sample_uniform_sphere(u),
+                power: intensity / uniform_sphere_pdf(),
+                pdf_dir: uniform_sphere_pdf(),
+            },
+            DeltaLight::Spot(spot) => {
+                let local = sample_uniform_cone(u, spot.cos_cutoff);
+                let dir = Frame::from_normal(spot.axis).to_world(local).normalize();
+                let pdf_dir = 1.0 / (TAU * (1.0 - spot.cos_cutoff));
+                DeltaEmission {
+                    origin: spot.position,
+                    dir,
+                    power: spot.intensity * (spot.falloff(dir) / pdf_dir),
+                    pdf_dir,
+                }
+            }
+            DeltaLight::Directional { direction, irradiance } => {
+                let disc = sample_concentric_disk(u) * radius;
+                let frame = Frame::from_normal(direction);
+                DeltaEmission {
+                    origin: center - radius * direction + frame.to_world(Vec3::new(disc.x, disc.y, 0.0)),
+                    dir: direction,
+                    power: irradiance * (PI * radius * radius),
+                    pdf_dir: 0.0,
+                }
+            }
+        };
+        (e.power.is_finite() && e.power.max_element() > 0.0).then_some(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    fn spot(cutoff_deg: f32, beam_deg: f32) -> Spot {
+        Spot::new(
+            Vec3::ZERO,
+            Vec3::new(0.3, -1.0, 0.2),
+            Vec3::ONE,
+            cutoff_deg.to_radians(),
+            beam_deg.to_radians(),
+        )
+    }
+
+    /// ∫ falloff dω in closed form against a midpoint quadrature in θ.
+    #[test]
+    fn spot_falloff_integral_matches_quadrature() {
+        for (c, b) in [(20.0, 15.0), (60.0, 10.0), (30.0, 30.0), (80.0, 1.0)] {
+            let s = spot(c, b);
+            let n = 200_000;
+            let dtheta = std::f64::consts::PI / n as f64;
+            let frame = Frame::from_normal(s.axis);
+            let quad: f64 = (0..n)
+                .map(|i| {
+                    let theta = (i as f64 + 0.5) * dtheta;
+                    let w = frame.to_world(Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32));
+                    s.falloff(w) as f64 * std::f64::consts::TAU * theta.sin() * dtheta
+                })
+                .sum();
+            let closed = s.falloff_solid_angle() as f64;
+            assert!(
+                (closed / quad - 1.0).abs() < 1e-3,
+                "cutoff {c} beam {b}: {closed} vs {quad}"
+            );
+        }
+    }
+
+    /// The mean power of emitted samples is the light's power (each sample is an unbiased
+    /// estimate of Φ), and a spot's samples stay in its cone.
+    #[test]
+    fn emitted_samples_average_to_the_power() {
+        let lights = [
+            DeltaLight::Point {
+                position: Vec3::ONE,
+                intensity: Vec3::new(1.0, 2.0, 3.0),
+            },
+            DeltaLight::Spot(spot(40.0, 25.0)),
+            DeltaLight::Directional {
+                direction: Vec3::new(0.0, -1.0, 0.0),
+                irradiance: Vec3::splat(2.0),
+            },
+        ];
+        let bounds = (Vec3::ZERO, 3.0);
+        let mut rng = Rng::for_task(7, [0, 0, 0]);
+        for light in lights {
+            let n = 200_000;
+            let mut sum = glam::DVec3::ZERO;
+            for _ in 0..n {
+                if let Some(e) = light.emit(rng.uniform2(), bounds) {
+                    sum += e.power.as_dvec3();
+                    if let DeltaLight::Spot(s) = light {
+                        assert!(s.axis.dot(e.dir) >= s.cos_cutoff - 1e-6);
+                    }
+                    if let DeltaLight::Directional { .. } = light {
+                        assert!((e.origin - bounds.0).length() <= bounds.1 * 1.4143);
+                    }
+                }
+            }
+            let mean = sum / n as f64;
+            let power = light.power(bounds.1).as_dvec3();
+            let rel = (mean / power - glam::DVec3::ONE).abs().max_element();
+            assert!(rel < 0.01, "{light:?}: mean {mean} vs power {power}");
+        }
+    }
+
+    #[test]
+    fn illumination_follows_the_inverse_square_law_and_the_cone() {
+        let p = DeltaLight::Point {
+            position: Vec3::new(0.0, 2.0, 0.0),
+            intensity: Vec3::splat(8.0),
+        };
+        let s = p.illuminate(Vec3::ZERO).unwrap();
+        assert_eq!(s.li, Vec3::splat(2.0));
+        assert_eq!(s.wi, Vec3::Y);
+        assert_eq!(s.dist, 2.0);
+        assert!(p.illuminate(Vec3::new(0.0, 2.0, 0.0)).is_none());
+        let sp = DeltaLight::Spot(Spot::new(Vec3::Y, -Vec3::Y, Vec3::ONE, 0.5, 0.25));
+        assert_eq!(sp.illuminate(Vec3::ZERO).unwrap().li, Vec3::ONE);
+        // Outside the cutoff (tan 0.5 ≈ 0.546 at distance 1).
+        assert!(sp.illuminate(Vec3::new(0.6, 0.0, 0.0)).is_none());
+        // In the ramp: at angle 0.375 the falloff is one half.
+        let x = Vec3::new(0.375f32.tan(), 0.0, 0.0);
+        let li = sp.illuminate(x).unwrap().li.x * (Vec3::Y - x).length_squared();
+        assert!((li - 0.5).abs() < 1e-4, "{li}");
+    }
+}

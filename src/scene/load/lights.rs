@@ -1,0 +1,90 @@
+//! Point, spot and directional lights: positions within the scene's limits, intensities and
+//! irradiances finite and non-negative, directions non-zero, spot angles ordered.
+
+use super::*;
+use crate::error::Result;
+use crate::light::delta::{DeltaLight, Spot};
+use crate::scene::desc::LightDesc;
+
+/// The largest cutoff half-angle of a spot, in degrees: beyond it the cone is the whole sphere.
+const MAX_SPOT_ANGLE: f64 = 180.0;
+
+/// Builds light `i` of the file's `[[lights]]`.
+pub(super) fn delta_light(ctx: &Ctx, i: usize, l: &LightDesc) -> Result<DeltaLight> {
+    let field = |name: &str| format!("lights[{i}].{name}");
+    let power = |name: &str, v: desc::Triple| -> Result<glam::Vec3> {
+        if v.iter().all(|&x| (0.0..=MAX_RADIANCE).contains(&x)) {
+            Ok(rgb(v))
+        } else {
+            Err(ctx.err(
+                &field(name),
+                format!(
+                    "expected each channel finite in [0, {}], got {}",
+                    num(MAX_RADIANCE),
+                    triple(v)
+                ),
+            ))
+        }
+    };
+    let direction = |name: &str, v: desc::Triple| -> Result<glam::Vec3> {
+        let d = ctx.coords(&field(name), v)?;
+        if d.length() < 1e-12 {
+            return Err(ctx.err(&field(name), "expected a non-zero direction, got [0, 0, 0]"));
+        }
+        Ok(d.normalize().as_vec3())
+    };
+    Ok(match l {
+        LightDesc::Point(p) => DeltaLight::Point {
+            position: ctx.coords(&field("position"), p.position)?.as_vec3(),
+            intensity: power("intensity", p.intensity)?,
+        },
+        LightDesc::Directional(d) => DeltaLight::Directional {
+            direction: direction("direction", d.direction)?,
+            irradiance: power("irradiance", d.irradiance)?,
+        },
+        LightDesc::Spot(s) => {
+            let position = ctx.coords(&field("position"), s.position)?;
+            let axis = match (s.target, s.direction) {
+                (Some(t), None) => {
+                    let t = ctx.coords(&field("target"), t)?;
+                    if (t - position).length() < 1e-12 {
+                        return Err(ctx.err(&field("target"), "expected a point other than the position"));
+                    }
+                    (t - position).normalize().as_vec3()
+                }
+                (None, Some(d)) => direction("direction", d)?,
+                _ => {
+                    return Err(ctx.err(
+                        &field("target"),
+                        "expected exactly one of `target` (a point on the axis) and `direction`",
+                    ));
+                }
+            };
+            let cutoff = s.cutoff_angle.unwrap_or(20.0);
+            if !(cutoff > 0.0 && cutoff <= MAX_SPOT_ANGLE) {
+                return Err(ctx.err(
+                    &field("cutoff_angle"),
+                    format!("expected degrees in (0, {MAX_SPOT_ANGLE}], got {}", num(cutoff)),
+                ));
+            }
+            let beam = s.beam_width.unwrap_or(0.75 * cutoff);
+            if !(beam > 0.0 && beam <= cutoff) {
+                return Err(ctx.err(
+                    &field("beam_width"),
+                    format!(
+                        "expected degrees in (0, cutoff_angle = {}], got {}",
+                        num(cutoff),
+                        num(beam)
+                    ),
+                ));
+            }
+            DeltaLight::Spot(Spot::new(
+                position.as_vec3(),
+                axis,
+                power("intensity", s.intensity)?,
+                cutoff.to_radians() as f32,
+                beam.to_radians() as f32,
+            ))
+        }
+    })
+}
