@@ -197,8 +197,9 @@ fn delta_light_photons_carry_the_power_they_deliver() {
 
 /// A closed room lit by a point light and a spot only, with a rough metal sphere (glossy
 /// vertices, where gather rays and photon-mapping eye paths must sample the delta lights they
-/// cannot hit): the unbiased strategies agree with `path` within 4 standard errors of the
-/// image mean; `photon_map` within 5 %; `ppm` and `sppm`, whose radius bias after 16 passes is
+/// cannot hit): the unbiased strategies (light sub-paths from the point and the spot included:
+/// `light`, `bdpt`) agree with `path` within 4 standard errors of the image mean; `photon_map`
+/// and `vcm` within 5 %; `ppm` and `sppm`, whose radius bias after 16 passes is
 /// still −5 % here (−3.4 % after 128), within 8 %. The depth is 64 for all: the photon-mapping
 /// strategies add the eye path's bounces to the photons', so at a depth of 8 they would carry
 /// light `path` cuts off (6 % of this white room's).
@@ -212,11 +213,14 @@ fn strategies_that_render_delta_lights_agree_with_path() {
         ("path", "max_depth = 64\nlight_selection = \"uniform\"", 256),
         ("photon_guided", "max_depth = 64", 64),
         ("ppg", "max_depth = 64", 64),
+        ("bdpt", "max_depth = 64", 16),
+        ("light", "max_depth = 64", 16),
     ] {
         assert_agrees(kind, image_mean(&scene, kind, params, spp), path);
     }
     for (kind, params, spp, tolerance) in [
         ("photon_map", "max_depth = 64", 4, 0.05),
+        ("vcm", "max_depth = 64", 16, 0.05),
         ("ppm", "max_depth = 64\ndirect = \"photons\"", 16, 0.08),
         ("sppm", "max_depth = 64", 16, 0.08),
     ] {
@@ -262,29 +266,46 @@ intensity = [6, 5, 4]
 cutoff_angle = 25
 "#;
 
+/// Each strategy either renders a scene's point and spot lights (`ROOM`) and directional light
+/// (a floor under the sun) or refuses the scene with one line naming itself and the light.
 #[test]
 fn strategies_that_cannot_reach_delta_lights_refuse_the_scene() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = load(dir.path(), "room.toml", ROOM).unwrap();
-    let able = ["path", "ppg", "photon_guided", "photon_map", "ppm", "sppm"];
-    for kind in strategy::kinds() {
-        let s: Box<dyn Strategy> = strategy::build(kind, toml::Table::new()).unwrap();
-        match strategy::check_scene(&*s, &scene) {
-            Ok(()) => assert!(able.contains(&kind), "{kind} accepted delta lights it does not render"),
-            Err(e) => {
-                let e = e.to_string();
-                assert!(!able.contains(&kind), "{kind}: {e}");
-                assert!(
-                    e.lines().count() == 1 && e.contains(&format!("`{kind}`")) && e.contains("point, spot"),
-                    "{e}"
-                );
+    let room = load(dir.path(), "room.toml", ROOM).unwrap();
+    let sun = load(
+        dir.path(),
+        "sun.toml",
+        &floor_under("type = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]"),
+    )
+    .unwrap();
+    let eye_paths = ["path", "ppg", "photon_guided", "photon_map", "ppm", "sppm"];
+    for (scene, able, what) in [
+        (
+            &room,
+            [&eye_paths[..], &["light", "bdpt", "vcm"]].concat(),
+            "point or spot",
+        ),
+        (&sun, eye_paths.to_vec(), "directional"),
+    ] {
+        for kind in strategy::kinds() {
+            let s: Box<dyn Strategy> = strategy::build(kind, toml::Table::new()).unwrap();
+            match strategy::check_scene(&*s, scene) {
+                Ok(()) => assert!(able.contains(&kind), "{kind} accepted {what} lights it does not render"),
+                Err(e) => {
+                    let e = e.to_string();
+                    assert!(!able.contains(&kind), "{kind}: {e}");
+                    assert!(
+                        e.lines().count() == 1 && e.contains(&format!("`{kind}`")) && e.contains(what),
+                        "{e}"
+                    );
+                }
             }
         }
     }
     // A path tracer that finds light only by hitting it cannot see a point light.
     let bsdf_only = strategy::build("path", toml::from_str("direct = \"bsdf\"").unwrap()).unwrap();
-    let e = strategy::check_scene(&*bsdf_only, &scene).unwrap_err().to_string();
-    assert!(e.contains("`path`") && e.contains("point, spot"), "{e}");
+    let e = strategy::check_scene(&*bsdf_only, &room).unwrap_err().to_string();
+    assert!(e.contains("`path`") && e.contains("point or spot"), "{e}");
 }
 
 #[test]
@@ -427,7 +448,12 @@ fn light_reflected_by_a_glossy_surface_is_found_by_every_strategy() {
     let dir = tempfile::tempdir().unwrap();
     let scene = load(dir.path(), "reflector.toml", REFLECTOR).unwrap();
     let path = image_mean(&scene, "path", "max_depth = 8", 256);
-    for (kind, params, spp) in [("photon_guided", "max_depth = 8", 64), ("ppg", "max_depth = 8", 64)] {
+    for (kind, params, spp) in [
+        ("photon_guided", "max_depth = 8", 64),
+        ("ppg", "max_depth = 8", 64),
+        ("bdpt", "max_depth = 8", 16),
+        ("light", "max_depth = 8", 16),
+    ] {
         assert_agrees(kind, image_mean(&scene, kind, params, spp), path);
     }
     for (kind, params, spp) in [

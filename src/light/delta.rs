@@ -159,6 +159,44 @@ impl DeltaLight {
         (s.li.max_element() > 0.0).then_some(s)
     }
 
+    /// Whether the light sits at a point (a point or a spot) rather than infinitely far away.
+    #[inline]
+    pub fn is_positional(&self) -> bool {
+        !matches!(self, DeltaLight::Directional { .. })
+    }
+
+    /// The light's position (points and spots; `None` for directional light).
+    #[inline]
+    pub fn position(&self) -> Option<Vec3> {
+        match *self {
+            DeltaLight::Point { position, .. } => Some(position),
+            DeltaLight::Spot(spot) => Some(spot.position),
+            DeltaLight::Directional { .. } => None,
+        }
+    }
+
+    /// Radiant intensity I f(ω) leaving a point or a spot in unit world direction `w` (zero
+    /// for directional light, which has no intensity).
+    #[inline]
+    pub fn intensity(&self, w: Vec3) -> Vec3 {
+        match *self {
+            DeltaLight::Point { intensity, .. } => intensity,
+            DeltaLight::Spot(spot) => spot.intensity * spot.falloff(w),
+            DeltaLight::Directional { .. } => Vec3::ZERO,
+        }
+    }
+
+    /// Solid-angle density with which [`DeltaLight::emit`] sends a point's or a spot's ray in
+    /// unit world direction `w` (0 for directional light).
+    #[inline]
+    pub fn pdf_emit_dir(&self, w: Vec3) -> f32 {
+        match *self {
+            DeltaLight::Point { .. } => uniform_sphere_pdf(),
+            DeltaLight::Spot(spot) if spot.axis.dot(w) >= spot.cos_cutoff => 1.0 / (TAU * (1.0 - spot.cos_cutoff)),
+            _ => 0.0,
+        }
+    }
+
     /// Emitted power Φ (module doc); `scene_radius` is R for directional light.
     pub fn power(&self, scene_radius: f32) -> Vec3 {
         match *self {
@@ -181,7 +219,7 @@ impl DeltaLight {
             DeltaLight::Spot(spot) => {
                 let local = sample_uniform_cone(u, spot.cos_cutoff);
                 let dir = Frame::from_normal(spot.axis).to_world(local).normalize();
-                let pdf_dir = 1.0 / (TAU * (1.0 - spot.cos_cutoff));
+                let pdf_dir = self.pdf_emit_dir(dir);
                 DeltaEmission {
                     origin: spot.position,
                     dir,

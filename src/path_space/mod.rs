@@ -38,6 +38,12 @@ use std::f32::consts::FRAC_1_PI;
 pub enum VertexKind {
     /// x₀, a point on light `index` of `Scene::lights`.
     Light(u32),
+    /// x₀, the position of point or spot light `index` of `Scene::delta_lights`. It has no
+    /// normal (`ng` is zero): its emission is an intensity, so the edge leaving it has no
+    /// cosine at x₀ ([`cos_at`]), and its "area density" is the probability of choosing it, a
+    /// delta that every technique able to make such a path shares (the eye side can never
+    /// hit it, and the pinhole never sees it).
+    DeltaLight(u32),
     /// A scattering point.
     Surface,
     /// x_k, the pinhole.
@@ -92,6 +98,21 @@ impl Vertex {
         }
     }
 
+    /// x₀ at point or spot light `j` of `Scene::delta_lights`; `None` for directional light,
+    /// which has no position (path space does not hold it).
+    pub fn delta_light(scene: &Scene, j: usize) -> Option<Self> {
+        Some(Self {
+            p: scene.delta_lights[j].position()?,
+            ng: Vec3::ZERO,
+            frame: Frame::from_normal(Vec3::Z),
+            prim: u32::MAX,
+            material: u32::MAX,
+            uv: Vec2::ZERO,
+            kind: VertexKind::DeltaLight(j as u32),
+            delta: false,
+        })
+    }
+
     /// The pinhole x_k.
     pub fn eye(scene: &Scene) -> Self {
         let forward = scene.camera.forward();
@@ -114,6 +135,12 @@ impl Vertex {
         }
         let light = scene.light_index_of(self.prim)?;
         Some(Self::light(scene, light, self.p, self.ng))
+    }
+
+    /// x₀ of a path: a point on an area light or a point or spot light.
+    #[inline]
+    pub fn is_light(&self) -> bool {
+        matches!(self.kind, VertexKind::Light(_) | VertexKind::DeltaLight(_))
     }
 
     #[inline]
@@ -145,6 +172,17 @@ pub fn direction(a: &Vertex, b: &Vertex) -> (Vec3, f32) {
     }
 }
 
+/// |cos θ| of direction `d` at vertex `v`: 1 at a point or spot light, whose emission is an
+/// intensity (Le G becomes I |cos θ₁| / r² [Veach 1997, §8.1.1 on point sources]).
+#[inline]
+pub fn cos_at(v: &Vertex, d: Vec3) -> f32 {
+    if let VertexKind::DeltaLight(_) = v.kind {
+        1.0
+    } else {
+        v.ng.dot(d).abs()
+    }
+}
+
 /// |cos θ_b| / |a − b|²: turns a solid-angle density at `a` into an area density at `b`.
 #[inline]
 pub fn solid_angle_to_area(a: &Vertex, b: &Vertex) -> f32 {
@@ -153,7 +191,8 @@ pub fn solid_angle_to_area(a: &Vertex, b: &Vertex) -> f32 {
 }
 
 /// The camera factor C(x) = du/dA(x) of a vertex seen from the pinhole, with its raster
-/// position; `None` outside the image or behind the camera.
+/// position; `None` outside the image or behind the camera, and for a point or spot light
+/// (zero normal: a point the pinhole cannot see).
 pub fn camera_factor(scene: &Scene, x: &Vertex) -> Option<(Vec2, f32)> {
     let cam = &scene.camera;
     let d = x.p - cam.eye;
@@ -216,16 +255,18 @@ pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
     if d2 == 0.0 {
         0.0
     } else {
-        (a.ng.dot(d) * b.ng.dot(d)).abs() / d2
+        cos_at(a, d) * cos_at(b, d) / d2
     }
 }
 
-/// Emitted radiance Le(x₀ → x₁).
+/// Emitted radiance Le(x₀ → x₁) (the intensity I(x₀ → x₁) at a point or spot light).
 pub fn emitted(scene: &Scene, path: &[Vertex]) -> Vec3 {
-    let VertexKind::Light(l) = path[0].kind else {
-        return Vec3::ZERO;
-    };
-    scene.lights[l as usize].le(path[0].ng, direction(&path[0], &path[1]).0)
+    let d = direction(&path[0], &path[1]).0;
+    match path[0].kind {
+        VertexKind::Light(l) => scene.lights[l as usize].le(path[0].ng, d),
+        VertexKind::DeltaLight(j) => scene.delta_lights[j as usize].intensity(d),
+        _ => Vec3::ZERO,
+    }
 }
 
 /// Le G Π f_s G up to vertex `upto` (excluded: its f_s is not applied): the flux density that
@@ -246,7 +287,7 @@ pub fn light_throughput(scene: &Scene, path: &[Vertex], upto: usize) -> Vec3 {
 /// for a malformed path or one outside the image. Visibility is not checked.
 pub fn contribution(scene: &Scene, path: &[Vertex]) -> Option<(Vec3, Vec2)> {
     let k = path.len().checked_sub(1)?;
-    if k == 0 || !matches!(path[0].kind, VertexKind::Light(_)) || path[k].kind != VertexKind::Eye {
+    if k == 0 || !path[0].is_light() || path[k].kind != VertexKind::Eye {
         return None;
     }
     let (raster, c) = camera_factor(scene, &path[k - 1])?;
@@ -259,17 +300,23 @@ pub fn contribution(scene: &Scene, path: &[Vertex]) -> Option<(Vec3, Vec2)> {
 }
 
 /// Area density with which the *light* side produces vertex i from i−1 (and i−2): x₀ by
-/// choosing a light ∝ power and a point uniformly on it, x₁ by cosine-distributed emission,
-/// later vertices by sampling the BSDF at x_{i−1} (its lobe probability if specular).
+/// choosing a light ∝ power and a point uniformly on it (a point or spot light: the
+/// probability of choosing it), x₁ by cosine-distributed emission (a point: uniform over the
+/// sphere; a spot: uniform in its cutoff cone), later vertices by sampling the BSDF at x_{i−1}
+/// (its lobe probability if specular).
 pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
-    match i {
-        0 => {
-            let VertexKind::Light(l) = path[0].kind else { return 0.0 };
+    match (i, path[0].kind) {
+        (0, VertexKind::Light(l)) => {
             let light = &scene.lights[l as usize];
             scene.light_selection.pmf(l as usize) / light.area
         }
-        1 => {
-            let VertexKind::Light(l) = path[0].kind else { return 0.0 };
+        (0, VertexKind::DeltaLight(j)) => scene.light_selection.pmf(scene.lights.len() + j as usize),
+        (0 | 1, VertexKind::Surface | VertexKind::Eye) => 0.0,
+        (1, VertexKind::DeltaLight(j)) => {
+            let (d, _) = direction(&path[0], &path[1]);
+            scene.delta_lights[j as usize].pdf_emit_dir(d) * solid_angle_to_area(&path[0], &path[1])
+        }
+        (1, VertexKind::Light(l)) => {
             let (d, _) = direction(&path[0], &path[1]);
             let cos = path[0].ng.dot(d);
             let light = &scene.lights[l as usize];

@@ -3,11 +3,12 @@
 //! the density that [`pdf_light_side`] / [`pdf_eye_side`] report, and path-tracing samples of
 //! whole paths for the normalisation B and the chains' first states.
 
-use super::{Vertex, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
+use super::{Vertex, VertexKind, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, spawn_ray};
 use crate::sampling::{Rng, sample_cosine_hemisphere};
 use crate::scene::Scene;
+use crate::scene::light_selection::Emitter;
 use glam::{Vec2, Vec3};
 
 /// The first surface hit along `ray`, as a vertex.
@@ -35,12 +36,20 @@ pub fn sample_direction(scene: &Scene, v: &Vertex, from: &Vertex, mode: Transpor
     (wi.dot(v.ng) * s.wi.z > 0.0).then_some(wi)
 }
 
-/// A light vertex x₀: a light chosen ∝ power, a point uniformly on it.
-pub fn sample_light_vertex(scene: &Scene, rng: &mut Rng) -> Vertex {
-    let (l, _, _) = scene.light_selection.sample(rng.uniform());
-    let light = &scene.lights[l];
-    let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
-    Vertex::light(scene, l, lp.p, lp.n)
+/// A light vertex x₀: an emitter chosen ∝ power, a point uniformly on it (the position of a
+/// point or spot light). `None` for directional and environment light, which path space does
+/// not hold (the strategies built on it refuse such scenes, [`crate::strategy::check_scene`]).
+pub fn sample_light_vertex(scene: &Scene, rng: &mut Rng) -> Option<Vertex> {
+    let (i, _, _) = scene.light_selection.sample(rng.uniform());
+    match scene.emitter(i) {
+        Emitter::Area(l) => {
+            let light = &scene.lights[l];
+            let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
+            Some(Vertex::light(scene, l, lp.p, lp.n))
+        }
+        Emitter::Delta(j) => Vertex::delta_light(scene, j),
+        Emitter::Environment => None,
+    }
 }
 
 /// Appends `n` light-side vertices to `path` (x₀ first; an empty `path` starts at a light).
@@ -48,17 +57,25 @@ pub fn sample_light_vertex(scene: &Scene, rng: &mut Rng) -> Vertex {
 pub fn extend_light_side(scene: &Scene, path: &mut Vec<Vertex>, n: usize, rng: &mut Rng) -> bool {
     for _ in 0..n {
         let next = match path.len() {
-            0 => Some(sample_light_vertex(scene, rng)),
+            0 => sample_light_vertex(scene, rng),
             1 => {
                 let x0 = path[0];
-                let super::VertexKind::Light(l) = x0.kind else {
-                    return false;
-                };
-                let mut local = sample_cosine_hemisphere(rng.uniform2());
-                if scene.lights[l as usize].emission.two_sided && rng.uniform() < 0.5 {
-                    local.z = -local.z;
+                match x0.kind {
+                    VertexKind::Light(l) => {
+                        let mut local = sample_cosine_hemisphere(rng.uniform2());
+                        if scene.lights[l as usize].emission.two_sided && rng.uniform() < 0.5 {
+                            local.z = -local.z;
+                        }
+                        trace_from(scene, &x0, x0.frame.to_world(local))
+                    }
+                    VertexKind::DeltaLight(j) => {
+                        let light = &scene.delta_lights[j as usize];
+                        light
+                            .emit(rng.uniform2(), scene.bounding_sphere())
+                            .and_then(|e| trace(scene, &Ray::new(x0.p, e.dir)))
+                    }
+                    _ => return false,
                 }
-                trace_from(scene, &x0, x0.frame.to_world(local))
             }
             len => {
                 let (v, from) = (path[len - 1], path[len - 2]);
@@ -144,12 +161,13 @@ pub fn path_tracing_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit:
         if let Some(x0) = z.as_light(scene) {
             weigh(scene, &join(&[x0], &rev[..rev.len() - 1]), false, emit);
         }
-        if !z.delta && rev.len() <= max_edges {
-            let y = sample_light_vertex(scene, rng);
-            if visible(scene, &y, &z) {
-                let path = join(&[y], &rev);
-                weigh(scene, &path, true, emit);
-            }
+        if !z.delta
+            && rev.len() <= max_edges
+            && let Some(y) = sample_light_vertex(scene, rng)
+            && visible(scene, &y, &z)
+        {
+            let path = join(&[y], &rev);
+            weigh(scene, &path, true, emit);
         }
     }
 }

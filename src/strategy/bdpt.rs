@@ -35,7 +35,9 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::params::{Params, Range};
 use crate::path_space::walk::{extend_light_side, join, trace, trace_from};
-use crate::path_space::{Vertex, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
+use crate::path_space::{
+    Vertex, VertexKind, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible,
+};
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -233,7 +235,14 @@ impl Bdpt {
         let p = |s: usize| -> f64 { pl[..s].iter().product::<f64>() * pe[s..].iter().product::<f64>() };
         // Technique s' joins x_{s'−1} and x_{s'}: both must be non-specular (the pinhole and a
         // hit of the eye walk on a light always may).
-        let valid = |s: usize| s == 0 || (path[s - 1].connectible() && (s == k || path[s].connectible()));
+        // The eye walk cannot hit a point or spot light (s' = 0 needs x₀ on an area light).
+        let valid = |s: usize| {
+            if s == 0 {
+                matches!(path[0].kind, VertexKind::Light(_))
+            } else {
+                path[s - 1].connectible() && (s == k || path[s].connectible())
+            }
+        };
         let p_merge = |m: usize, eta: f64| eta * pl[m] * p(m);
         let can_merge = |m: usize| m >= 1 && m < k && path[m].is_surface() && path[m].connectible();
         let pt = match technique {
@@ -363,6 +372,10 @@ fn step_weight(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rn
 }
 
 impl Strategy for Bdpt {
+    fn handles_point_lights(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

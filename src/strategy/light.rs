@@ -117,7 +117,10 @@ impl LightTracing {
     fn trace(&self, scene: &Scene, rng: &mut Rng, out: &mut Vec<Splat>) {
         let max_depth = self.params.max_depth as usize;
         let mut sub = Vec::with_capacity(max_depth + 1);
-        sub.push(sample_light_vertex(scene, rng));
+        let Some(x0) = sample_light_vertex(scene, rng) else {
+            return;
+        };
+        sub.push(x0);
         out.extend(self.connect(scene, &sub, Vec3::ZERO));
         let mut a = Vec3::ZERO;
         let mut a1_lum = 0.0;
@@ -151,6 +154,10 @@ impl LightTracing {
 }
 
 impl Strategy for LightTracing {
+    fn handles_point_lights(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

@@ -60,10 +60,16 @@ pub trait Strategy: Send + Sync {
         false
     }
 
-    /// Whether the strategy renders point, spot and directional lights (a scene's
+    /// Whether the strategy renders point and spot lights (a scene's positional
     /// `delta_lights`), which only next-event estimation or paths starting on them can reach.
     /// The others refuse such a scene ([`check_scene`]).
-    fn handles_delta_lights(&self) -> bool {
+    fn handles_point_lights(&self) -> bool {
+        false
+    }
+
+    /// Whether the strategy renders directional light (parallel light from infinitely far
+    /// away). The others refuse such a scene ([`check_scene`]).
+    fn handles_directional_lights(&self) -> bool {
         false
     }
 
@@ -140,15 +146,20 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
             able.join(", ")
         );
     }
-    if !scene.delta_lights.is_empty() && !strategy.handles_delta_lights() {
-        let able = able(|s| s.handles_delta_lights());
+    let refuse = |what: &str, can: fn(&dyn Strategy) -> bool| -> Result<()> {
         crate::bail!(
-            "{}: strategy `{}` with these parameters does not render point, spot or directional lights \
-             (reached only by light sampling) yet; strategies that do: {}",
+            "{}: strategy `{}` with these parameters does not render {what} (reached only by light \
+             sampling or by paths that start on it) yet; strategies that do: {}",
             scene.source.display(),
             strategy.kind(),
-            able.join(", ")
-        );
+            able(can).join(", ")
+        )
+    };
+    if scene.delta_lights.iter().any(|l| l.is_positional()) && !strategy.handles_point_lights() {
+        refuse("point or spot lights", |s| s.handles_point_lights())?;
+    }
+    if scene.delta_lights.iter().any(|l| !l.is_positional()) && !strategy.handles_directional_lights() {
+        refuse("directional light", |s| s.handles_directional_lights())?;
     }
     Ok(())
 }

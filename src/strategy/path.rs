@@ -120,7 +120,11 @@ impl Strategy for Path {
         true
     }
 
-    fn handles_delta_lights(&self) -> bool {
+    fn handles_point_lights(&self) -> bool {
+        self.params.direct != Direct::Bsdf
+    }
+
+    fn handles_directional_lights(&self) -> bool {
         self.params.direct != Direct::Bsdf
     }
 

@@ -302,6 +302,10 @@ impl Vcm {
 }
 
 impl Strategy for Vcm {
+    fn handles_point_lights(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

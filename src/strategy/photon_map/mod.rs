@@ -275,7 +275,11 @@ impl Strategy for PhotonMapStrategy {
         true
     }
 
-    fn handles_delta_lights(&self) -> bool {
+    fn handles_point_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_directional_lights(&self) -> bool {
         true
     }
 

@@ -332,7 +332,11 @@ impl Strategy for Ppg {
         true
     }
 
-    fn handles_delta_lights(&self) -> bool {
+    fn handles_point_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_directional_lights(&self) -> bool {
         true
     }
 

@@ -426,7 +426,11 @@ macro_rules! progressive_strategy {
                 true
             }
 
-            fn handles_delta_lights(&self) -> bool {
+            fn handles_point_lights(&self) -> bool {
+                true
+            }
+
+            fn handles_directional_lights(&self) -> bool {
                 true
             }
 
