@@ -1,6 +1,7 @@
 //! Pinhole camera.
 
 use crate::geometry::Ray;
+use crate::pixel_filter::PixelFilter;
 use glam::{Vec2, Vec3};
 
 /// A pinhole camera looking from `eye` toward `look_at`; `fov_y_deg` is the full vertical field
@@ -13,6 +14,8 @@ pub struct Camera {
     pub fov_y_deg: f32,
     pub width: u32,
     pub height: u32,
+    /// The pixel reconstruction filter ([`crate::pixel_filter`]; the box by default).
+    pub filter: PixelFilter,
     /// Camera basis: right, true up, forward (unit vectors).
     right: Vec3,
     true_up: Vec3,
@@ -38,6 +41,7 @@ impl Camera {
             fov_y_deg,
             width,
             height,
+            filter: PixelFilter::Box,
             right,
             true_up,
             forward,
@@ -48,6 +52,28 @@ impl Camera {
 
     pub fn pixel_count(&self) -> usize {
         self.width as usize * self.height as usize
+    }
+
+    /// The same camera with pixel filter `filter`.
+    pub fn with_filter(mut self, filter: PixelFilter) -> Self {
+        self.filter = filter;
+        self
+    }
+
+    /// The raster position of a sample of pixel `pixel` (row-major index) drawn with `u`,
+    /// through the pixel filter.
+    #[inline]
+    pub fn sample_raster(&self, pixel: usize, u: Vec2) -> Vec2 {
+        let w = self.width as usize;
+        let xy = ((pixel % w) as u32, (pixel / w) as u32);
+        self.filter.sample(xy, u, (self.width, self.height))
+    }
+
+    /// Calls `add(pixel index, weight)` for every pixel a contribution landing at raster
+    /// position `raster` belongs to (one pixel, weight 1, for the box filter).
+    #[inline]
+    pub fn splat(&self, raster: Vec2, add: impl FnMut(u32, f32)) {
+        self.filter.splat(raster, (self.width, self.height), add);
     }
 
     /// The primary ray through raster position `raster` (pixel (x, y) covers [x, x+1) × [y, y+1)).

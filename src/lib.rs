@@ -29,6 +29,7 @@ pub mod params;
 pub mod path_space;
 pub mod perf;
 pub mod photon;
+pub mod pixel_filter;
 pub mod report;
 pub mod resources;
 pub mod sampling;

@@ -19,7 +19,7 @@ use crate::sampling::Rng;
 use crate::sampling::stream;
 use crate::scene::Scene;
 use crate::strategy::path::{PathParams, RayTally, radiance, radiance_traced};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -89,9 +89,8 @@ impl RayTally for Recorder {
 }
 
 fn camera_ray(scene: &Scene, seed: u64, pixel: usize, s: u32) -> (Ray, Rng) {
-    let w = scene.camera.width as usize;
     let mut rng = Rng::for_task(seed, [stream::CAMERA_PATH, pixel as u64, s as u64]);
-    let raster = Vec2::new((pixel % w) as f32, (pixel / w) as f32) + rng.uniform2();
+    let raster = scene.camera.sample_raster(pixel, rng.uniform2());
     (scene.camera.generate_ray(raster), rng)
 }
 

@@ -96,7 +96,7 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         "            <integer name=\"height\" value=\"{}\"/>",
         c.resolution[1]
     );
-    let _ = writeln!(x, "            <rfilter type=\"box\"/>");
+    let _ = writeln!(x, "            {}", rfilter_xml(c.filter));
     let _ = writeln!(x, "            <string name=\"pixel_format\" value=\"rgb\"/>");
     let _ = writeln!(x, "        </film>");
     let _ = writeln!(x, "    </sensor>");
@@ -248,6 +248,22 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         ));
     }
     Ok((x, warnings))
+}
+
+/// The camera's pixel filter as Mitsuba's `<rfilter>` (the box when none is given: our default,
+/// not Mitsuba's).
+fn rfilter_xml(f: Option<desc::FilterDesc>) -> String {
+    match f {
+        None | Some(desc::FilterDesc::Box(_)) => "<rfilter type=\"box\"/>".to_string(),
+        Some(desc::FilterDesc::Tent(t)) => format!(
+            "<rfilter type=\"tent\"><float name=\"radius\" value=\"{}\"/></rfilter>",
+            t.radius.unwrap_or(1.0)
+        ),
+        Some(desc::FilterDesc::Gaussian(g)) => format!(
+            "<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"{}\"/></rfilter>",
+            g.stddev.unwrap_or(0.5)
+        ),
+    }
 }
 
 /// A point, spot or directional light as Mitsuba's emitter of the same name (a spot through a

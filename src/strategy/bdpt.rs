@@ -295,9 +295,8 @@ impl Bdpt {
                 if let Some((v, r)) = self.weighted(scene, &path, s, eta)
                     && visible(scene, &y[s - 1], &z[0])
                 {
-                    let cam = &scene.camera;
-                    let (px, py) = ((r.x as u32).min(cam.width - 1), (r.y as u32).min(cam.height - 1));
-                    out.splats.push((py * cam.width + px, v / light.survival[s - 1] as f32));
+                    let v = v / light.survival[s - 1] as f32;
+                    scene.camera.splat(r, |p, w| out.splats.push((p, v * w)));
                     self.splats.fetch_add(1, Relaxed);
                 }
             }
@@ -386,11 +385,10 @@ impl Strategy for Bdpt {
 
     fn render_pass(&self, scene: &Scene, seed: u64, samples: Samples<u32>, film: &mut Film) {
         let n = scene.camera.pixel_count();
-        let width = scene.camera.width as usize;
         for s in samples {
             pixel_pass(scene, film, |p| {
                 let mut rng = Rng::for_task(seed, [stream::BDPT, p as u64, s as u64]);
-                let raster = Vec2::new((p % width) as f32, (p / width) as f32) + rng.uniform2();
+                let raster = scene.camera.sample_raster(p, rng.uniform2());
                 self.sample(scene, raster, &mut rng)
             });
             self.samples.fetch_add(n as u64, Relaxed);

@@ -84,15 +84,17 @@ impl Declared for LightTracing {
 type Splat = (u32, Vec3);
 
 impl LightTracing {
-    /// f/p of joining the light sub-path `sub` (x₀ … x_i, with ratio `a` = A_i for i ≥ 1) to the
-    /// pinhole, and the pixel it lands in; `None` when it misses the image, is blocked, or
-    /// its last vertex is specular.
-    fn connect(&self, scene: &Scene, sub: &[Vertex], a: Vec3) -> Option<Splat> {
-        let x = sub.last()?;
+    /// Splats f/p of joining the light sub-path `sub` (x₀ … x_i, with ratio `a` = A_i for
+    /// i ≥ 1) to the pinhole into `out`, on the pixels whose filter covers where it lands;
+    /// nothing when it misses the image, is blocked, or its last vertex is specular.
+    fn connect(&self, scene: &Scene, sub: &[Vertex], a: Vec3, out: &mut Vec<Splat>) {
+        let Some(x) = sub.last() else { return };
         if !x.connectible() {
-            return None;
+            return;
         }
-        let (raster, c) = camera_factor(scene, x)?;
+        let Some((raster, c)) = camera_factor(scene, x) else {
+            return;
+        };
         let eye = Vertex::eye(scene);
         self.connections.fetch_add(1, Relaxed);
         let value = if sub.len() == 1 {
@@ -102,15 +104,10 @@ impl LightTracing {
             a * scattering(scene, &[sub[i - 1], *x, eye], 1) * c
         };
         if value == Vec3::ZERO || !value.is_finite() || !visible(scene, x, &eye) {
-            return None;
+            return;
         }
-        let cam = &scene.camera;
-        let (px, py) = (
-            (raster.x as u32).min(cam.width - 1),
-            (raster.y as u32).min(cam.height - 1),
-        );
         self.splats.fetch_add(1, Relaxed);
-        Some((py * cam.width + px, value))
+        scene.camera.splat(raster, |p, w| out.push((p, value * w)));
     }
 
     /// Traces one light path and pushes its splats.
@@ -121,7 +118,7 @@ impl LightTracing {
             return;
         };
         sub.push(x0);
-        out.extend(self.connect(scene, &sub, Vec3::ZERO));
+        self.connect(scene, &sub, Vec3::ZERO, out);
         let mut a = Vec3::ZERO;
         let mut a1_lum = 0.0;
         for i in 1..=max_depth {
@@ -141,7 +138,7 @@ impl LightTracing {
             if i == 1 {
                 a1_lum = crate::color::luminance(a);
             }
-            out.extend(self.connect(scene, &sub, a));
+            self.connect(scene, &sub, a, out);
             if i >= self.params.rr_depth as usize {
                 let q = (crate::color::luminance(a) / a1_lum).clamp(0.0, 0.95);
                 if q.is_nan() || q <= 0.0 || rng.uniform() >= q {

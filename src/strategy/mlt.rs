@@ -123,17 +123,18 @@ impl Strategy for Mlt {
                     let mut rng = Rng::for_task(seed, [crate::sampling::stream::CHAIN, c as u64, s as u64]);
                     let mut tally = Tally::default();
                     let mut splats = Vec::new();
-                    let width = scene.camera.width;
-                    let pixel = |st: &State| st.raster.y as u32 * width + st.raster.x as u32;
+                    let mut splat_at = |st: &State, value: Vec3| {
+                        scene.camera.splat(st.raster, |p, w| splats.push((p, value * w)));
+                    };
                     for _ in 0..chain_share(pixels as u64, chains, c as u64) {
                         let step = chain.step(&mut rng, &mut tally);
                         if splat {
                             let cur = &chain.current;
-                            splats.push((pixel(cur), cur.f / cur.f_y * (1.0 - step.a)));
+                            splat_at(cur, cur.f / cur.f_y * (1.0 - step.a));
                             if let Some(cand) = &step.candidate
                                 && step.a > 0.0
                             {
-                                splats.push((pixel(cand), cand.f / cand.f_y * step.a));
+                                splat_at(cand, cand.f / cand.f_y * step.a);
                             }
                         }
                         chain.commit(step);

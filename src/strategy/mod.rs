@@ -34,7 +34,7 @@ use crate::film::Film;
 use crate::geometry::Ray;
 use crate::sampling::{Rng, stream};
 use crate::scene::{Scene, SurfaceHit};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -189,9 +189,8 @@ where
     F: Fn(&Ray, &mut Rng) -> Vec3,
 {
     let cam = &scene.camera;
-    let width = cam.width as usize;
     let mut rng = Rng::for_task(seed, [stream::CAMERA_PATH, pixel as u64, s as u64]);
-    let raster = Vec2::new((pixel % width) as f32, (pixel / width) as f32) + rng.uniform2();
+    let raster = cam.sample_raster(pixel, rng.uniform2());
     let ray = cam.generate_ray(raster);
     radiance(&ray, &mut rng)
 }

@@ -43,7 +43,7 @@ use crate::path_space::{
 use crate::photon::{KdPoint, KdTree};
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::ops::Range as Samples;
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
@@ -321,7 +321,6 @@ impl Strategy for Vcm {
 
     fn render_pass(&self, scene: &Scene, seed: u64, samples: Samples<u32>, film: &mut Film) {
         let n = scene.camera.pixel_count();
-        let width = scene.camera.width as usize;
         let merging = self.params.mode != VcmMode::Bpt;
         for s in samples {
             let r = self.radius(s);
@@ -330,7 +329,7 @@ impl Strategy for Vcm {
             let merge = (lights.as_slice(), &points, r, eta);
             pixel_pass(scene, film, |p| {
                 let mut rng = Rng::for_task(seed, [stream::VCM_EYE, p as u64, s as u64]);
-                let raster = Vec2::new((p % width) as f32, (p / width) as f32) + rng.uniform2();
+                let raster = scene.camera.sample_raster(p, rng.uniform2());
                 let eye = self.bdpt.eye_subpath(scene, raster, &mut rng);
                 self.pixel(scene, &eye, p, merge)
             });

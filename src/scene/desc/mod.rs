@@ -15,6 +15,10 @@
 //! up = [0, 1, 0]                    # optional, default [0, 1, 0]; not parallel to the view
 //! fov_y = 39.3077                   # full vertical field of view, degrees, in (0, 180)
 //! resolution = [80, 60]             # width, height: 1..=16384 each, at most 64 Mpixel
+//! filter = { type = "gaussian", stddev = 0.5 }   # optional pixel filter: box (default) |
+//!                                   # tent (radius in (0, 16], default 1) | gaussian (stddev in
+//!                                   # (0, 4], default 0.5; radius 4 stddev): Mitsuba's rfilters,
+//!                                   # sampled by filter importance sampling (src/pixel_filter.rs)
 //!
 //! # Materials are named tables; `type` picks the reflectance model.
 //! [materials.white]
@@ -336,6 +340,38 @@ pub struct CameraDesc {
     pub fov_y: f64,
     /// `[width, height]` in pixels.
     pub resolution: Fixed<u32, 2>,
+    /// The pixel reconstruction filter (default: the box).
+    pub filter: Option<FilterDesc>,
+}
+
+/// A pixel reconstruction filter (Mitsuba's rfilters of the same names); `type` selects it.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum FilterDesc {
+    Box(BoxFilterDesc),
+    Tent(TentFilterDesc),
+    Gaussian(GaussianFilterDesc),
+}
+
+/// The pixel's own square.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxFilterDesc {}
+
+/// max(0, 1 − |x| / radius) per axis.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TentFilterDesc {
+    /// Half-width in pixels (default 1, as Mitsuba).
+    pub radius: Option<f64>,
+}
+
+/// Mitsuba's truncated Gaussian, radius 4 σ, per axis.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaussianFilterDesc {
+    /// σ in pixels (default 0.5, as Mitsuba).
+    pub stddev: Option<f64>,
 }
 
 fn default_up() -> Triple {

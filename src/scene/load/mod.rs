@@ -221,6 +221,11 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         b.hashed.push(format!("param {name}={value}").into_bytes());
     }
     let camera = camera(&ctx, &desc.camera)?;
+    // The filter changes every pixel; a Mitsuba scene's default one is not in its bytes.
+    if let crate::pixel_filter::PixelFilter::Separable(s) = &camera.filter {
+        b.hashed
+            .push(format!("photon-bench pixel filter v1: {:?}", s.kind).into_bytes());
+    }
     let mut textures = textures::Textures::new(&b.dir);
     let (materials, material_index) = materials(&ctx, &desc.materials, &mut textures)?;
     b.hashed.append(&mut textures.hashed);

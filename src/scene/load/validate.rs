@@ -7,6 +7,7 @@ use super::*;
 use crate::bsdf::{Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
 use crate::camera::Camera;
 use crate::error::Result;
+use crate::pixel_filter::{FilterKind, PixelFilter};
 use crate::resources::{check_memory, film_bytes, memory_limit};
 use crate::scene::Material;
 use crate::scene::desc::{self, MaterialDesc, Triple};
@@ -169,14 +170,30 @@ pub(super) fn camera(ctx: &Ctx, c: &desc::CameraDesc) -> Result<Camera> {
             ),
         ));
     }
-    Ok(Camera::new(
-        eye.as_vec3(),
-        look_at.as_vec3(),
-        up.as_vec3(),
-        c.fov_y as f32,
-        w,
-        h,
-    ))
+    Ok(
+        Camera::new(eye.as_vec3(), look_at.as_vec3(), up.as_vec3(), c.fov_y as f32, w, h)
+            .with_filter(pixel_filter(ctx, c.filter)?),
+    )
+}
+
+/// The camera's pixel filter: a tent's radius in (0, 16], a Gaussian's σ in (0, 4] pixels.
+fn pixel_filter(ctx: &Ctx, f: Option<desc::FilterDesc>) -> Result<PixelFilter> {
+    let within = |field: &str, v: f64, max: f64| -> Result<f32> {
+        if v > 0.0 && v <= max {
+            Ok(v as f32)
+        } else {
+            Err(ctx.err(field, format!("expected pixels in (0, {max}], got {}", num(v))))
+        }
+    };
+    Ok(match f {
+        None | Some(desc::FilterDesc::Box(_)) => PixelFilter::Box,
+        Some(desc::FilterDesc::Tent(t)) => PixelFilter::separable(FilterKind::Tent {
+            radius: within("camera.filter.radius", t.radius.unwrap_or(1.0), 16.0)?,
+        }),
+        Some(desc::FilterDesc::Gaussian(g)) => PixelFilter::separable(FilterKind::Gaussian {
+            stddev: within("camera.filter.stddev", g.stddev.unwrap_or(0.5), 4.0)?,
+        }),
+    })
 }
 
 /// Validates every material and builds them in name order; returns the name → index map.

@@ -39,15 +39,15 @@ impl<'a, 'i> Reader<'a, 'i> {
             Some((_, m)) => m,
             None => DMat4::IDENTITY,
         };
-        let (mut width, mut height) = (None, None);
+        let (mut width, mut height, mut filter) = (None, None, None);
         for c in o.children.clone() {
             match c.tag_name().name() {
                 "film" => {
                     if width.is_some() {
                         return Err(self.err(c, "a second <film>"));
                     }
-                    let (w, h) = self.film(c)?;
-                    (width, height) = (Some(w), Some(h));
+                    let (w, h, f) = self.film(c)?;
+                    (width, height, filter) = (Some(w), Some(h), Some(f));
                 }
                 "sampler" => self.warn(c, "ignored: the experiment file sets the samples per pixel"),
                 "ref" if c.attribute("id").is_some_and(|id| self.sampler_ids.contains(id)) => {
@@ -106,10 +106,12 @@ impl<'a, 'i> Reader<'a, 'i> {
             up: Fixed(up.to_array()),
             fov_y: 2.0 * half_h.atan().to_degrees(),
             resolution: Fixed([w, h]),
+            // A sensor without a film has Mitsuba's default film and its Gaussian.
+            filter: Some(filter.unwrap_or(desc::FilterDesc::Gaussian(desc::GaussianFilterDesc { stddev: None }))),
         })
     }
 
-    pub(super) fn film(&mut self, n: Node<'a, 'i>) -> Result<(u32, u32)> {
+    pub(super) fn film(&mut self, n: Node<'a, 'i>) -> Result<(u32, u32, desc::FilterDesc)> {
         let kind = self.required(n, "type")?;
         if kind != "hdrfilm" {
             return Err(self.err(n, format!("unsupported film {kind:?} (hdrfilm)")));
@@ -140,30 +142,47 @@ impl<'a, 'i> Reader<'a, 'i> {
         for key in ["banner", "sample_border"] {
             self.boolean(&mut o, key)?;
         }
-        let mut box_filter = false;
+        // Mitsuba's film reconstructs with a Gaussian unless told otherwise.
+        let mut filter = desc::FilterDesc::Gaussian(desc::GaussianFilterDesc { stddev: None });
+        let mut seen = false;
         for c in o.children.clone() {
             match c.tag_name().name() {
+                "rfilter" if seen => return Err(self.err(c, "a second <rfilter>")),
                 "rfilter" => {
-                    box_filter = self.attr(c, "type")?.as_deref() == Some("box");
-                    if !box_filter {
-                        self.warn(
-                            c,
-                            "photon-bench's film is a box filter (each sample counts in its own pixel); \
-                             Mitsuba's images with this filter are slightly blurrier",
-                        );
-                    }
+                    seen = true;
+                    filter = self.rfilter(c)?;
                 }
                 other => return Err(self.err(c, format!("unsupported element <{other}> in a film (rfilter)"))),
             }
         }
-        if !box_filter && !o.children.iter().any(|c| c.has_tag_name("rfilter")) {
-            self.warn(
-                n,
-                "no <rfilter>: Mitsuba's default is a Gaussian; photon-bench's film is a box filter \
-                 (add <rfilter type=\"box\"/> for equal images)",
-            );
-        }
         self.finish(&o)?;
-        Ok((size[0], size[1]))
+        Ok((size[0], size[1], filter))
+    }
+
+    /// `<rfilter>`: `box`, `tent` (`radius`) or `gaussian` (`stddev`); Mitsuba's filters with
+    /// negative lobes are refused (filter importance sampling needs a non-negative filter).
+    fn rfilter(&mut self, n: Node<'a, 'i>) -> Result<desc::FilterDesc> {
+        let kind = self.required(n, "type")?;
+        let mut o = self.obj(n)?;
+        let f = match kind.as_str() {
+            "box" => desc::FilterDesc::Box(desc::BoxFilterDesc {}),
+            "tent" => desc::FilterDesc::Tent(desc::TentFilterDesc {
+                radius: self.float(&mut o, "radius")?,
+            }),
+            "gaussian" => desc::FilterDesc::Gaussian(desc::GaussianFilterDesc {
+                stddev: self.float(&mut o, "stddev")?,
+            }),
+            other => {
+                return Err(self.err(
+                    n,
+                    format!(
+                        "unsupported rfilter {other:?} (box, tent, gaussian: photon-bench samples pixels by \
+                         the filter, which needs one without negative lobes)"
+                    ),
+                ));
+            }
+        };
+        self.finish(&o)?;
+        Ok(f)
     }
 }

@@ -51,7 +51,7 @@ use crate::params::{Params, Range};
 use crate::sampling::{Rng, stream};
 use crate::scene::{Scene, SurfaceHit};
 use combine::{Moments, weights};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use sdtree::SdTree;
 use std::ops::Range as Samples;
@@ -240,7 +240,6 @@ impl Ppg {
         let walk = self.walk();
         let spp = 1u64 << k;
         let pixels = scene.camera.pixel_count();
-        let width = scene.camera.width as usize;
         let guide = Guide {
             tree: &tree,
             alpha: self.params.bsdf_fraction,
@@ -253,7 +252,7 @@ impl Ppg {
                 let (mut sum, mut sq) = (DVec3::ZERO, 0.0);
                 for i in 0..spp {
                     let mut rng = Rng::for_task(seed, [stream::PPG_TRAIN, p as u64, first_sample + i]);
-                    let raster = Vec2::new((p % width) as f32, (p / width) as f32) + rng.uniform2();
+                    let raster = scene.camera.sample_raster(p, rng.uniform2());
                     let ray = scene.camera.generate_ray(raster);
                     rec.vertices.clear();
                     let l = trace(scene, &walk, &guide, ray, &mut rng, &mut rec);

@@ -56,7 +56,7 @@ use crate::params::{Params, Range};
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
 use eye::{EyePath, sample_direct, trace_eye};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::ops::Range as Samples;
 use std::sync::Mutex;
@@ -205,8 +205,7 @@ impl Progressive {
     /// The eye path of sample `index` of pixel `pixel`.
     fn eye_path(&self, camera: &Camera, scene: &Scene, seed: u64, pixel: usize, index: u64) -> EyePath {
         let mut rng = Rng::for_task(seed, [stream::PPM_EYE, pixel as u64, index]);
-        let width = camera.width as usize;
-        let raster = Vec2::new((pixel % width) as f32, (pixel / width) as f32) + rng.uniform2();
+        let raster = camera.sample_raster(pixel, rng.uniform2());
         let ray = camera.generate_ray(raster);
         trace_eye(scene, ray, self.settings.max_depth, self.settings.direct, &mut rng)
     }
