@@ -200,9 +200,40 @@ pub fn reference_markdown(registry: &Registry) -> String {
          `cargo run --release -- list --markdown > docs/strategies.md` (a test fails while this \
          file is stale). Every key is optional; `bench list` prints the same as TOML.\n\n",
     );
+    out += &capabilities_markdown(registry);
     for r in registry.iter() {
         out += &r.markdown();
         out.push('\n');
     }
+    out
+}
+
+/// What each strategy renders beyond area lights and the models every strategy takes, with
+/// its default parameters (the answers of [`Strategy`]'s `handles_*`).
+fn capabilities_markdown(registry: &Registry) -> String {
+    let mut out = String::from(
+        "## What each strategy renders
+
+With default parameters; a strategy refuses a scene holding \
+         anything it does not render, with one line naming it and the strategies that do \
+         (`strategy::check_scene`, before anything runs).
+
+\
+         | strategy | environment light | point and spot lights | directional light | smooth plastic |\n\
+         |---|---|---|---|---|\n",
+    );
+    let mark = |yes: bool| if yes { "yes" } else { "no" };
+    for r in registry.iter() {
+        let Ok(s) = (r.build)(toml::Table::new()) else { continue };
+        out += &format!(
+            "| `{}` | {} | {} | {} | {} |\n",
+            r.kind,
+            mark(s.handles_environment()),
+            mark(s.handles_point_lights()),
+            mark(s.handles_directional_lights()),
+            mark(s.handles_mixed_delta()),
+        );
+    }
+    out.push('\n');
     out
 }
