@@ -194,7 +194,7 @@ fn random_scene() -> impl Strategy<Value = String> {
         v3(3.0),
     );
     let shape = (
-        0usize..3,
+        0usize..5,
         0usize..3,
         xform,
         v3(1.0),
@@ -233,7 +233,16 @@ fn random_scene() -> impl Strategy<Value = String> {
                         size[0], size[1]
                     ),
                     1 => format!("type = \"box\"\ncenter = {p:?}\nsize = {size:?}"),
-                    _ => format!("type = \"sphere\"\ncenter = {p:?}\nradius = {}", size[0]),
+                    2 => format!("type = \"sphere\"\ncenter = {p:?}\nradius = {}", size[0]),
+                    3 => format!("type = \"disk\"\nflip_normals = {}", i % 2 == 1),
+                    _ => format!(
+                        "type = \"cylinder\"\np0 = {p:?}\np1 = [{}, {}, {}]\nradius = {}\nflip_normals = {}",
+                        p[0] + size[1],
+                        p[1] - size[2],
+                        p[2],
+                        size[0],
+                        i % 2 == 1
+                    ),
                 };
                 s.push_str(&format!(
                     "[[shapes]]\n{geometry}\nmaterial = \"{material}\"\n{transform}\nemission = {{ radiance = [1, {i}, 2] }}\n"
@@ -381,8 +390,8 @@ fn approximations_and_ignored_settings_are_warned_about() {
 fn bad_xml_is_refused_naming_the_element() {
     let cases: Vec<(String, &[&str])> = vec![
         (
-            scene_xml(&format!("{LIGHT}<shape type=\"disk\"/>")),
-            &["<shape type=\"disk\">", "unsupported shape"],
+            scene_xml(&format!("{LIGHT}<shape type=\"sdfgrid\"/>")),
+            &["<shape type=\"sdfgrid\">", "unsupported shape"],
         ),
         (
             scene_xml(&format!("{LIGHT}<emitter type=\"projector\"/>")),
@@ -488,7 +497,7 @@ fn bad_xml_is_refused_naming_the_element() {
 fn bench_exits_with_status_2_and_one_line_on_a_bad_xml_scene() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bad.xml");
-    std::fs::write(&path, scene_xml(&format!("{LIGHT}<shape type=\"disk\"/>"))).unwrap();
+    std::fs::write(&path, scene_xml(&format!("{LIGHT}<shape type=\"sdfgrid\"/>"))).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_bench"))
         .args(["reference", path.to_str().unwrap(), "--spp", "1", "--out"])
         .arg(dir.path().join("refs"))
@@ -498,7 +507,7 @@ fn bench_exits_with_status_2_and_one_line_on_a_bad_xml_scene() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(
-        stderr.contains("<shape type=\"disk\">") && stderr.contains("unsupported shape"),
+        stderr.contains("<shape type=\"sdfgrid\">") && stderr.contains("unsupported shape"),
         "{stderr}"
     );
     assert!(!dir.path().join("refs").exists());

@@ -11,7 +11,9 @@
 //!   `diffuse_transmission` have no Mitsuba 3 counterpart and are refused;
 //! - a quad is a `rectangle` and a box a `cube`, with the `to_world` matrix that maps Mitsuba's
 //!   [−1, 1]² (or ³) onto them (our transform included), so the triangles are ours; spheres
-//!   keep `center` and `radius`; meshes keep their OBJ file (made absolute when the XML goes
+//!   keep `center` and `radius`, disks and cylinders their Mitsuba parameters (`p0`, `p1`,
+//!   `radius`, `flip_normals`) and our transform as `to_world`, so that both sides tessellate
+//!   the same description; meshes keep their OBJ file (made absolute when the XML goes
 //!   to another directory) with `face_normals="true"` when the OBJ has no normals (Mitsuba
 //!   would smooth them; we shade flat);
 //! - two-sided emission is refused (Mitsuba's area lights emit from the front only);
@@ -158,6 +160,20 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
                     props.push_str(&matrix(t));
                 }
                 "sphere"
+            }
+            ShapeDesc::Disk(d) => {
+                props.push_str(&flip_normals(d.flip_normals));
+                if transform.is_some() {
+                    props.push_str(&matrix(t));
+                }
+                "disk"
+            }
+            ShapeDesc::Cylinder(c) => {
+                props.push_str(&cylinder_props(c));
+                if transform.is_some() {
+                    props.push_str(&matrix(t));
+                }
+                "cylinder"
             }
             ShapeDesc::Mesh(m) => {
                 let path = scene_dir.join(&m.file);
@@ -307,6 +323,27 @@ fn delta_light_xml(l: &desc::LightDesc) -> String {
                 angle("beam_width", s.beam_width)
             )
         }
+    }
+}
+
+/// A cylinder's axis and radius, Mitsuba's defaults written out, and its `flip_normals`.
+fn cylinder_props(c: &desc::Cylinder) -> String {
+    format!(
+        "        <point name=\"p0\" value=\"{}\"/>\n        <point name=\"p1\" value=\"{}\"/>\n        \
+         <float name=\"radius\" value=\"{}\"/>\n{}",
+        nums(&c.p0.unwrap_or(Fixed([0.0; 3])).0),
+        nums(&c.p1.unwrap_or(Fixed([0.0, 0.0, 1.0])).0),
+        c.radius.unwrap_or(1.0),
+        flip_normals(c.flip_normals)
+    )
+}
+
+/// `flip_normals` when set (Mitsuba's default is false).
+fn flip_normals(flip: bool) -> String {
+    if flip {
+        "        <boolean name=\"flip_normals\" value=\"true\"/>\n".to_string()
+    } else {
+        String::new()
     }
 }
 

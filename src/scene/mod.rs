@@ -89,7 +89,7 @@ pub enum UvMap {
 pub struct PrimAttrs {
     /// Index into `Scene::materials`.
     pub material: u32,
-    /// Per-vertex shading normals of a triangle (from OBJ files), if any.
+    /// Per-vertex shading normals of a triangle (from mesh files, disks and cylinders), if any.
     pub normals: Option<[Vec3; 3]>,
     /// Emission, if the primitive is (part of) an area light.
     pub emission: Option<Emission>,

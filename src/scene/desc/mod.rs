@@ -119,6 +119,18 @@
 //! center = [0.37, 0.1, 0.18]
 //! radius = 0.1                      # > 0; transforms must keep it a sphere (uniform scale)
 //! [[shapes]]
+//! type = "disk"                     # Mitsuba's disk: radius 1 in the xy plane, front side +z,
+//! material = "white"                #   placed by `transform` (a non-uniform scale makes an
+//! flip_normals = false              #   ellipse); optional flip_normals: front side −z
+//! transform = { scale = 0.05, rotate_x = -90, translate = [0.15, 0.001, 0.4] }
+//! [[shapes]]
+//! type = "cylinder"                 # Mitsuba's cylinder: an open tube (no caps), front outward
+//! material = "white"
+//! p0 = [0.45, 0, 0.1]               # the axis from p0 (default [0, 0, 0]) to p1 (default
+//! p1 = [0.45, 0.1, 0.1]             #   [0, 0, 1]); p1 != p0
+//! radius = 0.05                     # > 0, default 1
+//! flip_normals = false              # optional: front side inward
+//! [[shapes]]
 //! type = "mesh"                     # Wavefront OBJ (triangulated; MTL materials are ignored),
 //! material = "white"                #   Stanford PLY or Mitsuba .serialized, by the extension
 //! file = "meshes/bunny.obj"         # relative to this scene file
@@ -168,6 +180,15 @@
 //! `[{ translate = [-c] }, { rotate_y = 30 }, { translate = [c] }]`. Transforms that mirror
 //! (negative determinant) keep the front side of every quad, box and mesh triangle where it was
 //! meant to be; degenerate ones (determinant ≈ 0) are refused.
+//!
+//! **Disks and cylinders** have Mitsuba 3's parameters and meaning (the unit disk, the tube from
+//! `p0` to `p1` with Mitsuba's frame about its axis, then `transform`) and its texture
+//! coordinates: (r, φ/2π) on the disk, (φ/2π, t) on the tube, t from 0 at `p0` to 1 at `p1`.
+//! They are loaded as triangles with exact per-vertex normals: 512 segments around (area
+//! (2π/512)²/6 = 2.5·10⁻⁵ short for the disk, 6.3·10⁻⁶ for the tube), cells at most about 16
+//! times longer than wide (a disk is 13 824 triangles, a tube as long as its radius 6 144);
+//! `super::load`'s `curved` module has the details and figures. Like a quad, an emitting one
+//! is an area light of all its triangles, each emitting from the front side.
 //!
 //! **Meshes.** Faces are triangulated by tobj; OBJ vertex normals, when every vertex has one,
 //! become shading normals. Triangles whose area is zero to f32 precision are skipped and
@@ -640,118 +661,6 @@ pub struct DiffuseTransmission {
     pub transmittance: Triple,
 }
 
-/// A shape; `type` selects the variant.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum ShapeDesc {
-    Quad(Quad),
-    Box(Cuboid),
-    Sphere(Sphere),
-    Mesh(Mesh),
-}
-
-/// A parallelogram: `corner`, `edge_u`, `edge_v`, or an axis-aligned rectangle: `center`,
-/// `size`, `facing`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Quad {
-    pub material: String,
-    pub corner: Option<Triple>,
-    pub edge_u: Option<Triple>,
-    pub edge_v: Option<Triple>,
-    pub center: Option<Triple>,
-    /// Extents along the two in-plane axes, in x, y, z order.
-    pub size: Option<Fixed<f64, 2>>,
-    /// The axis the front side faces: "+x", "-x", "+y", "-y", "+z" or "-z" (default "+y").
-    pub facing: Option<String>,
-    /// Cells per edge of the tessellation (default 1: two triangles).
-    pub subdivide: Option<i64>,
-    pub transform: Option<TransformDesc>,
-    pub emission: Option<EmissionDesc>,
-}
-
-/// An axis-aligned box (`type = "box"`; named `Cuboid` so as not to shadow `std`'s `Box`):
-/// `min`/`max` or `center`/`size`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Cuboid {
-    pub material: String,
-    pub min: Option<Triple>,
-    pub max: Option<Triple>,
-    pub center: Option<Triple>,
-    pub size: Option<Triple>,
-    /// Cells per edge of each face's tessellation (default 1: two triangles per face).
-    pub subdivide: Option<i64>,
-    pub transform: Option<TransformDesc>,
-    pub emission: Option<EmissionDesc>,
-}
-
-/// An analytic sphere.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Sphere {
-    pub material: String,
-    pub center: Triple,
-    pub radius: f64,
-    pub transform: Option<TransformDesc>,
-    pub emission: Option<EmissionDesc>,
-}
-
-/// A triangle mesh from a Wavefront OBJ file.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Mesh {
-    pub material: String,
-    /// Relative to the directory of the scene file.
-    pub file: String,
-    /// Ignore the file's vertex normals and shade with the triangles' own normals (default
-    /// false). Mitsuba's `obj` option of the same name.
-    #[serde(default)]
-    pub face_normals: bool,
-    /// For a file without vertex normals: compute smooth ones as Mitsuba 3 does (angle-weighted
-    /// face normals) instead of shading flat (default false). The Mitsuba importer sets it
-    /// unless the scene asks for `face_normals`.
-    #[serde(default)]
-    pub smooth_normals: bool,
-    /// Which mesh of a Mitsuba `.serialized` file (default 0); other formats refuse it.
-    pub shape_index: Option<u32>,
-    pub transform: Option<TransformDesc>,
-    pub emission: Option<EmissionDesc>,
-}
-
-impl ShapeDesc {
-    /// The type name as written in the file.
-    pub fn type_name(&self) -> &'static str {
-        match self {
-            ShapeDesc::Quad(_) => "quad",
-            ShapeDesc::Box(_) => "box",
-            ShapeDesc::Sphere(_) => "sphere",
-            ShapeDesc::Mesh(_) => "mesh",
-        }
-    }
-
-    /// The keys every shape has: material, transform, emission.
-    pub fn common(&self) -> (&str, Option<&TransformDesc>, Option<&EmissionDesc>) {
-        match self {
-            ShapeDesc::Quad(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
-            ShapeDesc::Box(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
-            ShapeDesc::Sphere(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
-            ShapeDesc::Mesh(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
-        }
-    }
-}
-
-/// Makes a shape an area light.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct EmissionDesc {
-    /// Emitted radiance, each channel >= 0.
-    pub radiance: Triple,
-    /// Emit from the back side too (default: front side only).
-    #[serde(default)]
-    pub two_sided: bool,
-}
-
 /// One transform step or a list of steps, applied in list order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TransformDesc(pub Vec<TransformStep>);
@@ -793,4 +702,7 @@ pub enum ConeDeg {
     PerSegment(Vec<f64>),
 }
 
+mod shapes;
 mod visitors;
+
+pub use shapes::*;

@@ -166,6 +166,8 @@ pub(super) fn refine_tagged(root: &Spanned<DeValue>, path: &[Seg]) -> Option<(Ve
             (true, "box") => desc::Cuboid::deserialize(de).err(),
             (true, "sphere") => desc::Sphere::deserialize(de).err(),
             (true, "mesh") => desc::Mesh::deserialize(de).err(),
+            (true, "disk") => desc::Disk::deserialize(de).err(),
+            (true, "cylinder") => desc::Cylinder::deserialize(de).err(),
             (false, "diffuse") => desc::Diffuse::deserialize(de).err(),
             (false, "mirror") => desc::Mirror::deserialize(de).err(),
             (false, "dielectric") => desc::Dielectric::deserialize(de).err(),

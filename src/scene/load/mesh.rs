@@ -1,5 +1,6 @@
 //! Meshing: every shape to primitives (quads, boxes, spheres, OBJ meshes through tobj,
-//! `subdivide`), rounded to f32 only after validation; degenerate triangles refused or counted.
+//! `subdivide`; disks and cylinders in [`super::curved`]), rounded to f32 only after validation;
+//! degenerate triangles refused or counted.
 
 use super::mesh_formats::{TriMesh, angle_weighted_normals, parse_ply, parse_serialized};
 use super::*;
@@ -179,6 +180,8 @@ impl Builder<'_> {
                 Ok(())
             }
             ShapeDesc::Mesh(m) => self.mesh(field, m, &xf, attrs),
+            ShapeDesc::Disk(d) => self.disk(field, d, &xf, attrs),
+            ShapeDesc::Cylinder(c) => self.cylinder(field, c, &xf, attrs),
         }
     }
 

@@ -16,10 +16,13 @@
 //!
 //! Files: this one (entry points, statistics, hashing), [`locate`] (stages 1–2: errors located
 //! by key path and line/column), [`validate`] (stage 3: values, camera, materials), [`transform`](mod@transform)
-//! (shape transforms in f64), [`mesh`] (primitives, `subdivide`, OBJ), [`user_paths`](mod@user_paths) (the UP
+//! (shape transforms in f64), [`mesh`] (primitives, `subdivide`, OBJ), [`curved`] (disks and
+//! cylinders as triangles), [`user_paths`](mod@user_paths) (the UP
 //! proposal's paths), `tests.rs` (including the fuzz tests). What does not live here: the
 //! Mitsuba importer ([`super::mitsuba`]) and anything a renderer does with the scene.
 
+mod curved;
+pub(crate) use curved::cylinder_frame;
 mod environment;
 mod lights;
 mod locate;

@@ -20,6 +20,17 @@ impl Xform {
     pub(super) fn point(&self, p: DVec3) -> DVec3 {
         self.m.transform_point3(p)
     }
+
+    /// This map applied after `local` (an invertible affine map into this one's shape space):
+    /// how a shape with its own frame (a cylinder's axis) is placed.
+    pub(super) fn after(&self, local: DAffine3) -> Xform {
+        let m = self.m * local;
+        Xform {
+            m,
+            normal_matrix: m.matrix3.inverse().transpose(),
+            flips: m.matrix3.determinant() < 0.0,
+        }
+    }
 }
 
 /// Composes a transform description into one affine map, refusing non-finite, non-affine and

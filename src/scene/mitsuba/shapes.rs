@@ -1,18 +1,21 @@
-//! `<shape>` elements (meshes, rectangles, cubes, spheres …) and their `area` emitters.
+//! `<shape>` elements (meshes, rectangles, cubes, spheres, disks, cylinders) and their `area` emitters.
 
 use super::*;
 use crate::error::Result;
 use crate::scene::desc::{self, Fixed, MaterialDesc, ShapeDesc};
-use glam::DVec3;
+use crate::scene::load::cylinder_frame;
+use glam::{DMat3, DMat4, DVec3};
 use roxmltree::Node;
 
 impl<'a, 'i> Reader<'a, 'i> {
     pub(super) fn shape(&mut self, n: Node<'a, 'i>, index: usize) -> Result<ShapeDesc> {
         let kind = self.required(n, "type")?;
         let mut o = self.obj(n)?;
-        let transform = self.transform(&mut o, "to_world")?.map(|(_, m)| matrix_step(m));
-        if let Some(true) = self.boolean(&mut o, "flip_normals")? {
-            return Err(self.err(n, "flip_normals=\"true\" is not supported"));
+        let to_world = self.transform(&mut o, "to_world")?.map(|(_, m)| m);
+        let transform = to_world.map(matrix_step);
+        let flip_normals = self.boolean(&mut o, "flip_normals")?.unwrap_or(false);
+        if flip_normals && !matches!(kind.as_str(), "disk" | "cylinder") {
+            return Err(self.err(n, "flip_normals=\"true\" is supported on disks and cylinders only"));
         }
         let mut material = None;
         let mut emission = None;
@@ -116,6 +119,24 @@ impl<'a, 'i> Reader<'a, 'i> {
                 transform,
                 emission,
             }),
+            "disk" => ShapeDesc::Disk(desc::Disk {
+                material,
+                flip_normals,
+                transform,
+                emission,
+            }),
+            "cylinder" => {
+                let (p0, p1, radius) = self.cylinder_axis(n, &mut o, to_world, emission.is_some())?;
+                ShapeDesc::Cylinder(desc::Cylinder {
+                    material,
+                    p0: Some(Fixed(p0.to_array())),
+                    p1: Some(Fixed(p1.to_array())),
+                    radius: Some(radius),
+                    flip_normals,
+                    transform,
+                    emission,
+                })
+            }
             "obj" | "ply" | "serialized" => {
                 let Some((p, file)) = self.string(&mut o, "filename")? else {
                     return Err(self.err(n, "expected <string name=\"filename\">"));
@@ -153,12 +174,60 @@ impl<'a, 'i> Reader<'a, 'i> {
             other => {
                 return Err(self.err(
                     n,
-                    format!("unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere)"),
+                    format!(
+                        "unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere, disk, cylinder)"
+                    ),
                 ));
             }
         };
         self.finish(&o)?;
         Ok(shape)
+    }
+
+    /// A cylinder's `p0`, `p1` (defaults (0, 0, 0) and (0, 0, 1)) and `radius` (default 1), as
+    /// Mitsuba 3's `cylinder.cpp` reads them; a radius that is not positive and an axis of zero
+    /// length (where Mitsuba divides by zero) are refused. When the tube `emits`, a `to_world`
+    /// that makes it elliptic or shears it is warned about: Mitsuba (which warns too)
+    /// intersects that surface but takes its area, so its light sampling, as a round tube's,
+    /// which makes its image of the light wrong; our triangles are the surface itself.
+    fn cylinder_axis(
+        &mut self,
+        n: Node<'a, 'i>,
+        o: &mut Obj<'a, 'i>,
+        to_world: Option<DMat4>,
+        emits: bool,
+    ) -> Result<(DVec3, DVec3, f64)> {
+        let node = |o: &Obj<'a, 'i>, name: &str| o.props.get(name).copied().unwrap_or(n);
+        let (p0_node, p1_node, radius_node) = (node(o, "p0"), node(o, "p1"), node(o, "radius"));
+        let p0 = self.point(o, "p0")?.unwrap_or(DVec3::ZERO);
+        let p1 = self.point(o, "p1")?.unwrap_or(DVec3::Z);
+        let radius = self.float(o, "radius")?.unwrap_or(1.0);
+        if radius <= 0.0 {
+            return Err(self.err(radius_node, format!("radius: expected a positive number, got {radius}")));
+        }
+        if p0 == p1 {
+            // Named by the one written (p1 unless only p0 is).
+            let (at, key, other) = if p1_node == n {
+                (p0_node, "p0", "p1")
+            } else {
+                (p1_node, "p1", "p0")
+            };
+            return Err(self.err(
+                at,
+                format!(
+                    "{key}: expected a point other than {other} (the axis would have zero length), got {p1} for both"
+                ),
+            ));
+        }
+        let linear = to_world.map_or(DMat3::IDENTITY, DMat3::from_mat4) * cylinder_frame(p0, p1, radius).matrix3;
+        if emits && !is_round_tube(linear) {
+            self.warn(
+                n,
+                "to_world makes the emitting tube elliptic or sheared: Mitsuba 3 samples its light as a round \
+                 tube's, so Mitsuba's image of it will differ from ours",
+            );
+        }
+        Ok((p0, p1, radius))
     }
 
     /// A file as the loader will read it: relative to the scene file's directory, so a file
@@ -173,4 +242,15 @@ impl<'a, 'i> Reader<'a, 'i> {
             .display()
             .to_string())
     }
+}
+
+/// Whether the unit tube under `linear` is a round tube about a perpendicular axis (equal,
+/// orthogonal x and y columns, both orthogonal to z), the case where Mitsuba's area is right.
+fn is_round_tube(linear: DMat3) -> bool {
+    let (x, y, z) = (linear.x_axis, linear.y_axis, linear.z_axis);
+    let tol = 1e-5 * x.length().max(y.length()).max(z.length()).powi(2);
+    (x.length_squared() - y.length_squared()).abs() <= tol
+        && x.dot(y).abs() <= tol
+        && x.dot(z).abs() <= tol
+        && y.dot(z).abs() <= tol
 }
