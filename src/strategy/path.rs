@@ -305,6 +305,20 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
     f * le * (wi_local.z.abs() * weight / pdf_light_w)
 }
 
+/// f_s toward the light-sampled world direction `wi` at `hit`, and `wi` in the shading frame;
+/// `None` when the BSDF gives nothing there or when the geometric normal disagrees with the
+/// shading frame about `wi`'s side (as for BSDF-sampled directions: such a direction leaks
+/// light).
+#[inline]
+fn light_sample_f(hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+    let wi_local = hit.frame.to_local(wi);
+    if wi.dot(hit.ng) * wi_local.z <= 0.0 {
+        return None;
+    }
+    let f = bsdf.eval(wo, wi_local, TransportMode::Radiance);
+    (f != Vec3::ZERO).then_some((f, wi_local))
+}
+
 /// The shadow ray from surface point `p` (geometric normal `ng`) toward a delta light: up to
 /// just short of a point or spot (a light on a surface is not hidden by it), to infinity for
 /// directional light.
@@ -330,15 +344,9 @@ fn delta_direct(
     let Some(s) = scene.delta_lights[i].illuminate(hit.p) else {
         return Vec3::ZERO;
     };
-    let wi_local = hit.frame.to_local(s.wi);
-    // As for BSDF-sampled directions: one the geometric normal disagrees with leaks light.
-    if s.wi.dot(hit.ng) * wi_local.z <= 0.0 {
+    let Some((f, wi_local)) = light_sample_f(hit, bsdf, wo, s.wi) else {
         return Vec3::ZERO;
-    }
-    let f = bsdf.eval(wo, wi_local, TransportMode::Radiance);
-    if f == Vec3::ZERO {
-        return Vec3::ZERO;
-    }
+    };
     let shadow = delta_shadow_ray(hit.p, hit.ng, &s);
     tally.shadow(&shadow);
     if !scene.unoccluded(&shadow) {
@@ -388,15 +396,9 @@ fn environment_direct<S: DirectionSampler>(
     if s.le == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let wi_local = hit.frame.to_local(s.wi);
-    // As for BSDF-sampled directions: one the geometric normal disagrees with leaks light.
-    if s.wi.dot(hit.ng) * wi_local.z <= 0.0 {
+    let Some((f, wi_local)) = light_sample_f(hit, bsdf, wo, s.wi) else {
         return Vec3::ZERO;
-    }
-    let f = bsdf.eval(wo, wi_local, TransportMode::Radiance);
-    if f == Vec3::ZERO {
-        return Vec3::ZERO;
-    }
+    };
     let shadow = spawn_ray(hit.p, hit.ng, s.wi);
     tally.shadow(&shadow);
     if !scene.unoccluded(&shadow) {
