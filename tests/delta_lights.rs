@@ -6,7 +6,7 @@
 
 mod agreement;
 
-use agreement::{assert_agrees, image_mean};
+use agreement::{assert_agrees, assert_refused, image_mean};
 use glam::{Vec2, Vec3};
 use photon_bench::film::{Film, Image};
 use photon_bench::light::delta::DeltaLight;
@@ -316,10 +316,7 @@ fn bad_delta_lights_are_refused_naming_the_field() {
             .err()
             .expect("refused")
             .to_string();
-        assert_eq!(err.lines().count(), 1, "{err}");
-        for e in expect {
-            assert!(err.contains(e), "{err:?} lacks {e:?}");
-        }
+        assert_refused(&err, expect);
     };
     refused(
         "type = \"point\"\nposition = [0, 1, 0]\nintensity = [1, -1, 1]",

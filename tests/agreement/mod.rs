@@ -1,5 +1,6 @@
-//! Comparing strategies by their image means: the helper `tests/environment.rs` and
-//! `tests/plastic.rs` share.
+//! Helpers the feature tests share (`tests/environment.rs`, `tests/plastic.rs`,
+//! `tests/delta_lights.rs`): comparing strategies by their image means, and checking that bad
+//! input is refused with one line.
 
 use photon_bench::film::Film;
 use photon_bench::scene::Scene;
@@ -28,4 +29,13 @@ pub fn image_mean(scene: &Scene, kind: &str, params: &str, spp: u32) -> (f64, f6
 pub fn assert_agrees(kind: &str, (m, se): (f64, f64), (m0, se0): (f64, f64)) {
     let z = (m - m0) / (se * se + se0 * se0).sqrt();
     assert!(z.abs() < 4.0, "{kind}: {m} ± {se} vs path {m0} ± {se0} (z = {z:.2})");
+}
+
+/// Asserts that `err` is one line holding every text of `expect` (a field name, the value).
+#[allow(dead_code)] // not every test binary that includes this module refuses input
+pub fn assert_refused(err: &str, expect: &[&str]) {
+    assert_eq!(err.lines().count(), 1, "{err}");
+    for e in expect {
+        assert!(err.contains(e), "{err:?} lacks {e:?}");
+    }
 }
