@@ -69,11 +69,16 @@ impl Camera {
         self.filter.sample(xy, u, (self.width, self.height))
     }
 
-    /// Calls `add(pixel index, weight)` for every pixel a contribution landing at raster
-    /// position `raster` belongs to (one pixel, weight 1, for the box filter).
+    /// The pixel a contribution landing at raster position `raster` goes to and its weight:
+    /// one of the pixels whose filter covers it, drawn from `rng`
+    /// ([`PixelFilter::splat_one`]); the box filter's own pixel, weight 1, without a draw.
     #[inline]
-    pub fn splat(&self, raster: Vec2, add: impl FnMut(u32, f32)) {
-        self.filter.splat(raster, (self.width, self.height), add);
+    pub fn splat(&self, raster: Vec2, rng: &mut crate::sampling::Rng) -> Option<(u32, f32)> {
+        let u = match self.filter {
+            PixelFilter::Box => 0.0,
+            PixelFilter::Separable(_) => rng.uniform(),
+        };
+        self.filter.splat_one(raster, (self.width, self.height), u)
     }
 
     /// The primary ray through raster position `raster` (pixel (x, y) covers [x, x+1) × [y, y+1)).

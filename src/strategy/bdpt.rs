@@ -266,12 +266,19 @@ impl Bdpt {
     fn sample(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> Sample {
         let eye = self.eye_subpath(scene, raster, rng);
         let light = self.light_subpath(scene, rng);
-        self.connect_all(scene, &eye, &light, None)
+        self.connect_all(scene, &eye, &light, None, rng)
     }
 
     /// Every connection technique (s = 0, t = 1, s ≥ 1 with t ≥ 2) between one eye and one
     /// light sub-path, weighted with merging in the weights when `eta` is given (`vcm`).
-    pub(super) fn connect_all(&self, scene: &Scene, eye: &SubPath, light: &SubPath, eta: Option<f64>) -> Sample {
+    pub(super) fn connect_all(
+        &self,
+        scene: &Scene,
+        eye: &SubPath,
+        light: &SubPath,
+        eta: Option<f64>,
+        rng: &mut Rng,
+    ) -> Sample {
         let (z, y) = (&eye.vertices, &light.vertices);
         let mut out = Sample {
             own: Vec3::ZERO,
@@ -296,7 +303,7 @@ impl Bdpt {
                     && visible(scene, &y[s - 1], &z[0])
                 {
                     let v = v / light.survival[s - 1] as f32;
-                    scene.camera.splat(r, |p, w| out.splats.push((p, v * w)));
+                    out.splats.extend(scene.camera.splat(r, rng).map(|(p, w)| (p, v * w)));
                     self.splats.fetch_add(1, Relaxed);
                 }
             }

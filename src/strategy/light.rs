@@ -85,9 +85,9 @@ type Splat = (u32, Vec3);
 
 impl LightTracing {
     /// Splats f/p of joining the light sub-path `sub` (x₀ … x_i, with ratio `a` = A_i for
-    /// i ≥ 1) to the pinhole into `out`, on the pixels whose filter covers where it lands;
+    /// i ≥ 1) to the pinhole into `out`, on a pixel whose filter covers where it lands;
     /// nothing when it misses the image, is blocked, or its last vertex is specular.
-    fn connect(&self, scene: &Scene, sub: &[Vertex], a: Vec3, out: &mut Vec<Splat>) {
+    fn connect(&self, scene: &Scene, sub: &[Vertex], a: Vec3, rng: &mut Rng, out: &mut Vec<Splat>) {
         let Some(x) = sub.last() else { return };
         if !x.connectible() {
             return;
@@ -107,7 +107,7 @@ impl LightTracing {
             return;
         }
         self.splats.fetch_add(1, Relaxed);
-        scene.camera.splat(raster, |p, w| out.push((p, value * w)));
+        out.extend(scene.camera.splat(raster, rng).map(|(p, w)| (p, value * w)));
     }
 
     /// Traces one light path and pushes its splats.
@@ -118,7 +118,7 @@ impl LightTracing {
             return;
         };
         sub.push(x0);
-        self.connect(scene, &sub, Vec3::ZERO, out);
+        self.connect(scene, &sub, Vec3::ZERO, rng, out);
         let mut a = Vec3::ZERO;
         let mut a1_lum = 0.0;
         for i in 1..=max_depth {
@@ -138,7 +138,7 @@ impl LightTracing {
             if i == 1 {
                 a1_lum = crate::color::luminance(a);
             }
-            self.connect(scene, &sub, a, out);
+            self.connect(scene, &sub, a, rng, out);
             if i >= self.params.rr_depth as usize {
                 let q = (crate::color::luminance(a) / a1_lum).clamp(0.0, 0.95);
                 if q.is_nan() || q <= 0.0 || rng.uniform() >= q {

@@ -123,18 +123,18 @@ impl Strategy for Mlt {
                     let mut rng = Rng::for_task(seed, [crate::sampling::stream::CHAIN, c as u64, s as u64]);
                     let mut tally = Tally::default();
                     let mut splats = Vec::new();
-                    let mut splat_at = |st: &State, value: Vec3| {
-                        scene.camera.splat(st.raster, |p, w| splats.push((p, value * w)));
+                    let splat_at = |st: &State, value: Vec3, rng: &mut Rng, splats: &mut Splats| {
+                        splats.extend(scene.camera.splat(st.raster, rng).map(|(p, w)| (p, value * w)));
                     };
                     for _ in 0..chain_share(pixels as u64, chains, c as u64) {
                         let step = chain.step(&mut rng, &mut tally);
                         if splat {
                             let cur = &chain.current;
-                            splat_at(cur, cur.f / cur.f_y * (1.0 - step.a));
+                            splat_at(cur, cur.f / cur.f_y * (1.0 - step.a), &mut rng, &mut splats);
                             if let Some(cand) = &step.candidate
                                 && step.a > 0.0
                             {
-                                splat_at(cand, cand.f / cand.f_y * step.a);
+                                splat_at(cand, cand.f / cand.f_y * step.a, &mut rng, &mut splats);
                             }
                         }
                         chain.commit(step);

@@ -262,13 +262,14 @@ impl Vcm {
         eye: &SubPath,
         j: usize,
         merge: (&[SubPath], &KdTree<LightPoint>, f64, f64),
+        rng: &mut Rng,
     ) -> Sample {
         let z = &eye.vertices;
         let eta = merge.3;
         match self.params.mode {
-            VcmMode::Bpt => self.bdpt.connect_all(scene, eye, &merge.0[j], None),
+            VcmMode::Bpt => self.bdpt.connect_all(scene, eye, &merge.0[j], None, rng),
             VcmMode::Vcm => {
-                let mut sample = self.bdpt.connect_all(scene, eye, &merge.0[j], Some(eta));
+                let mut sample = self.bdpt.connect_all(scene, eye, &merge.0[j], Some(eta), rng);
                 let mut own = sample.own.as_dvec3();
                 for t in 2..=z.len() {
                     if !(z[t - 1].is_surface() && z[t - 1].connectible()) {
@@ -331,7 +332,7 @@ impl Strategy for Vcm {
                 let mut rng = Rng::for_task(seed, [stream::VCM_EYE, p as u64, s as u64]);
                 let raster = scene.camera.sample_raster(p, rng.uniform2());
                 let eye = self.bdpt.eye_subpath(scene, raster, &mut rng);
-                self.pixel(scene, &eye, p, merge)
+                self.pixel(scene, &eye, p, merge, &mut rng)
             });
             self.pixel_samples.fetch_add(n as u64, Relaxed);
         }
