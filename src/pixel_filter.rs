@@ -48,6 +48,14 @@ pub const BINS: usize = 62 * 16;
 /// Mitsuba's `MI_FILTER_RESOLUTION`: steps of its discretized filter over [0, r].
 pub const MITSUBA_RESOLUTION: usize = 31;
 
+/// The widest filter half-width in pixels (the loaders refuse wider ones): a splat then covers
+/// at most `2 r + 1` pixels per axis, so the covered pixels fit a fixed window on the stack
+/// (splatting sits in the light-tracing hot path).
+pub const MAX_RADIUS: f32 = 16.0;
+
+/// Pixels per axis a filter of radius [`MAX_RADIUS`] can cover.
+const MAX_COVERED: usize = 2 * MAX_RADIUS as usize + 1;
+
 /// A pixel filter.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PixelFilter {
@@ -112,9 +120,14 @@ impl FilterKind {
 }
 
 impl PixelFilter {
-    /// A separable filter of `kind`; the caller has checked its parameter is positive and finite.
+    /// A separable filter of `kind`; the caller has checked its parameter is positive and finite
+    /// and its radius at most [`MAX_RADIUS`].
     pub fn separable(kind: FilterKind) -> Self {
         let radius = kind.radius();
+        assert!(
+            radius <= MAX_RADIUS,
+            "pixel filter radius {radius} beyond {MAX_RADIUS} (loaders check)"
+        );
         // Mitsuba's scalar film (`ReconstructionFilter::eval_discretized`): |x| in bin
         // ⌊|x| · R / r⌋ of R = MI_FILTER_RESOLUTION = 31 takes the filter at the bin's inner edge.
         let per_side = BINS / 2;
@@ -152,8 +165,8 @@ impl PixelFilter {
             }
             PixelFilter::Separable(s) => {
                 let (xs, ys) = (s.covering(raster.x, width), s.covering(raster.y, height));
-                for (py, wy) in ys.clone() {
-                    for &(px, wx) in &xs {
+                for &(py, wy) in ys.as_slice() {
+                    for &(px, wx) in xs.as_slice() {
                         add(py * width + px, wx * wy);
                     }
                 }
@@ -177,10 +190,11 @@ impl PixelFilter {
             }
             PixelFilter::Separable(s) => {
                 let (xs, ys) = (s.covering(raster.x, width), s.covering(raster.y, height));
+                let (xs, ys) = (xs.as_slice(), ys.as_slice());
                 let (sx, sy): (f32, f32) = (xs.iter().map(|w| w.1).sum(), ys.iter().map(|w| w.1).sum());
                 // x by u, then y by what is left of u inside x's share.
-                let (px, rest) = pick(&xs, u * sx)?;
-                let (py, _) = pick(&ys, (rest * sy).min(sy * (1.0 - f32::EPSILON)))?;
+                let (px, rest) = pick(xs, u * sx)?;
+                let (py, _) = pick(ys, (rest * sy).min(sy * (1.0 - f32::EPSILON)))?;
                 Some((py * width + px, sx * sy))
             }
         }
@@ -238,16 +252,34 @@ impl Separable {
     }
 
     /// The pixels along one axis whose filter covers coordinate `x`, with their weights.
-    fn covering(&self, x: f32, size: u32) -> Vec<(u32, f32)> {
+    fn covering(&self, x: f32, size: u32) -> Covering {
         let first = (x - self.radius - 0.5).ceil().max(0.0) as u32;
         let last = ((x + self.radius - 0.5).floor().max(0.0) as u32).min(size - 1);
-        (first..=last)
-            .filter_map(|p| {
-                let (lo, hi) = self.window(p, size);
-                let w = self.pdf(x - (p as f32 + 0.5)) / (hi - lo);
-                (w > 0.0 && w.is_finite()).then_some((p, w))
-            })
-            .collect()
+        let mut out = Covering {
+            items: [(0, 0.0); MAX_COVERED],
+            len: 0,
+        };
+        for p in first..=last {
+            let (lo, hi) = self.window(p, size);
+            let w = self.pdf(x - (p as f32 + 0.5)) / (hi - lo);
+            if w > 0.0 && w.is_finite() && out.len < MAX_COVERED {
+                out.items[out.len] = (p, w);
+                out.len += 1;
+            }
+        }
+        out
+    }
+}
+
+/// The pixels along one axis that a filter covers, with their weights, in a fixed window.
+struct Covering {
+    items: [(u32, f32); MAX_COVERED],
+    len: usize,
+}
+
+impl Covering {
+    fn as_slice(&self) -> &[(u32, f32)] {
+        &self.items[..self.len]
     }
 }
 

@@ -7,7 +7,7 @@ use super::*;
 use crate::bsdf::{Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
 use crate::camera::Camera;
 use crate::error::Result;
-use crate::pixel_filter::{FilterKind, PixelFilter};
+use crate::pixel_filter::{FilterKind, MAX_RADIUS, PixelFilter};
 use crate::resources::{check_memory, film_bytes, memory_limit};
 use crate::scene::Material;
 use crate::scene::desc::{self, MaterialDesc, Triple};
@@ -188,10 +188,10 @@ fn pixel_filter(ctx: &Ctx, f: Option<desc::FilterDesc>) -> Result<PixelFilter> {
     Ok(match f {
         None | Some(desc::FilterDesc::Box(_)) => PixelFilter::Box,
         Some(desc::FilterDesc::Tent(t)) => PixelFilter::separable(FilterKind::Tent {
-            radius: within("camera.filter.radius", t.radius.unwrap_or(1.0), 16.0)?,
+            radius: within("camera.filter.radius", t.radius.unwrap_or(1.0), MAX_RADIUS as f64)?,
         }),
         Some(desc::FilterDesc::Gaussian(g)) => PixelFilter::separable(FilterKind::Gaussian {
-            stddev: within("camera.filter.stddev", g.stddev.unwrap_or(0.5), 4.0)?,
+            stddev: within("camera.filter.stddev", g.stddev.unwrap_or(0.5), MAX_RADIUS as f64 / 4.0)?,
         }),
     })
 }
