@@ -83,6 +83,58 @@ fn a_diffuse_sphere_under_a_constant_sky_reflects_albedo_times_sky() {
     }
 }
 
+/// The strategies built on path space (the environment as a vertex at infinity) reproduce the
+/// closed form of the test above, each technique family on its own: `light` sees the sky only
+/// by connecting environment samples to the pinhole, `bdpt` weighs that against the eye walk
+/// leaving the scene, `vcm` adds merging. Per region (the sphere's centre, ρ L; a corner, L)
+/// the mean over 6 seeds must lie within 4 standard errors (plus 1 % for `vcm`'s consistent
+/// merging), and the standard error must be small enough for that to mean something.
+#[test]
+fn path_space_strategies_under_a_constant_sky_reproduce_albedo_times_sky() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(
+        dir.path(),
+        &scene_toml("[environment]\ntype = \"constant\"\nradiance = [1, 2, 3]"),
+    )
+    .unwrap();
+    let centre: Vec<(u32, u32)> = (6..10).flat_map(|y| (6..10).map(move |x| (x, y))).collect();
+    let corners: Vec<(u32, u32)> = (0..2).flat_map(|y| [(0, y), (1, y), (14, y), (15, y)]).collect();
+    // `light` reaches a sky pixel only where one of its N = 256 environment samples per pass
+    // lands (~2 per corner pixel per 64 passes): its sky needs many passes for 6 seeds to
+    // estimate their own spread.
+    for (kind, spp, slack) in [("light", 1024, 0.0), ("bdpt", 64, 0.0), ("vcm", 64, 0.01)] {
+        let images: Vec<Image> = (0..6)
+            .map(|seed| {
+                let mut s = strategy::build(kind, toml::from_str("max_depth = 4").unwrap()).unwrap();
+                strategy::check_scene(&*s, &scene).unwrap();
+                s.prepare(&scene, seed).unwrap();
+                let mut film = Film::new(scene.camera.width, scene.camera.height);
+                s.render_pass(&scene, seed, 0..spp, &mut film);
+                film.image()
+            })
+            .collect();
+        for (region, pixels, expected) in [("sphere", &centre, 0.5 * 6.0), ("sky", &corners, 6.0)] {
+            let per_seed: Vec<f64> = images
+                .iter()
+                .map(|img| {
+                    let sum: f64 = pixels
+                        .iter()
+                        .map(|&(x, y)| f64::from(img.get(x, y).element_sum()))
+                        .sum();
+                    sum / pixels.len() as f64
+                })
+                .collect();
+            let m = per_seed.iter().sum::<f64>() / 6.0;
+            let se = (per_seed.iter().map(|v| (v - m).powi(2)).sum::<f64>() / 30.0).sqrt();
+            assert!(se < 0.03 * expected, "{kind} {region}: too noisy to judge ({m} ± {se})");
+            assert!(
+                (m - expected).abs() < 4.0 * se + slack * expected,
+                "{kind} {region}: {m} ± {se}, expected {expected}"
+            );
+        }
+    }
+}
+
 /// A small lat-long map with a bright sun and a dim sky.
 fn write_sky(path: &Path) {
     let (w, h) = (32u32, 16u32);
@@ -146,7 +198,7 @@ fn nee_bsdf_sampling_and_mis_agree_under_an_environment_map() {
 }
 
 /// A strategy that does not render environment light refuses the scene with one line naming
-/// itself; `path` and `ppg` take it.
+/// itself; the eye-path, photon and bidirectional strategies take it.
 #[test]
 fn strategies_without_environment_light_refuse_the_scene() {
     let dir = tempfile::tempdir().unwrap();
@@ -158,7 +210,7 @@ fn strategies_without_environment_light_refuse_the_scene() {
     for kind in strategy::kinds() {
         let s: Box<dyn Strategy> = strategy::build(kind, toml::Table::new()).unwrap();
         match (kind, strategy::check_scene(&*s, &scene)) {
-            ("path" | "ppg" | "photon_guided" | "photon_map" | "ppm" | "sppm", r) => {
+            ("path" | "ppg" | "photon_guided" | "photon_map" | "ppm" | "sppm" | "light" | "bdpt" | "vcm", r) => {
                 assert!(r.is_ok(), "{kind}: {r:?}")
             }
             (_, Ok(())) => panic!("{kind} accepted an environment it does not render"),
@@ -379,13 +431,20 @@ file = "sky.exr"
 "#;
     let scene = load(dir.path(), text).unwrap();
     let path = image_mean(&scene, "path", "max_depth = 4", 256);
-    for (kind, params, spp) in [("photon_guided", "max_depth = 4", 64), ("ppg", "max_depth = 4", 64)] {
+    for (kind, params, spp) in [
+        ("photon_guided", "max_depth = 4", 64),
+        ("ppg", "max_depth = 4", 64),
+        ("bdpt", "max_depth = 4", 64),
+        ("light", "max_depth = 4", 64),
+        ("vcm", "max_depth = 4\nmode = \"bpt\"", 64),
+    ] {
         assert_agrees(kind, image_mean(&scene, kind, params, spp), path);
     }
     for (kind, params, spp) in [
         ("photon_map", "max_depth = 4", 4),
         ("ppm", "max_depth = 4", 64),
         ("sppm", "max_depth = 4", 64),
+        ("vcm", "max_depth = 4", 64),
     ] {
         let (m, _) = image_mean(&scene, kind, params, spp);
         assert!((m / path.0 - 1.0).abs() < 0.05, "{kind}: {m} vs path {}", path.0);

@@ -19,7 +19,7 @@
 //! disc of radius R facing the light, one R beyond the scene's centre, as environment photons do.
 
 use crate::geometry::Frame;
-use crate::sampling::{sample_concentric_disk, sample_uniform_cone, sample_uniform_sphere, uniform_sphere_pdf};
+use crate::sampling::{sample_uniform_cone, sample_uniform_sphere, uniform_sphere_pdf};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
 
@@ -227,16 +227,12 @@ impl DeltaLight {
                     pdf_dir,
                 }
             }
-            DeltaLight::Directional { direction, irradiance } => {
-                let disc = sample_concentric_disk(u) * radius;
-                let frame = Frame::from_normal(direction);
-                DeltaEmission {
-                    origin: center - radius * direction + frame.to_world(Vec3::new(disc.x, disc.y, 0.0)),
-                    dir: direction,
-                    power: irradiance * (PI * radius * radius),
-                    pdf_dir: 0.0,
-                }
-            }
+            DeltaLight::Directional { direction, irradiance } => DeltaEmission {
+                origin: super::parallel_ray_origin(-direction, (center, radius), u),
+                dir: direction,
+                power: irradiance * (PI * radius * radius),
+                pdf_dir: 0.0,
+            },
         };
         (e.power.is_finite() && e.power.max_element() > 0.0).then_some(e)
     }

@@ -24,10 +24,22 @@ mod tests;
 
 pub use sphere_cone::{sample_sphere_cone, sphere_cone_pdf};
 
-use crate::geometry::Primitive;
-use crate::sampling::{sample_uniform_sphere, sample_uniform_triangle};
+use crate::geometry::{Frame, Primitive};
+use crate::sampling::{sample_concentric_disk, sample_uniform_sphere, sample_uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
+
+/// Where a ray of light arriving from infinitely far away (from unit direction `toward_light`,
+/// pointing from the scene to the light) starts: a point drawn with `u` uniformly on the disc
+/// of radius R that faces the light one radius beyond the centre of the scene's bounding
+/// sphere (`center`, R), density 1 / πR² over the disc. Every ray of that bundle that can
+/// reach the scene crosses the disc, so a surface point x receives such rays with area density
+/// |cos θ_x| / πR² [pbrt-v4, §12.5 and §13.9: infinite lights in light and bidirectional
+/// tracing]. Directional and environment light, in photon tracing and in path space, start here.
+pub fn parallel_ray_origin(toward_light: Vec3, (center, radius): (Vec3, f32), u: Vec2) -> Vec3 {
+    let disc = sample_concentric_disk(u) * radius;
+    center + radius * toward_light + Frame::from_normal(toward_light).to_world(Vec3::new(disc.x, disc.y, 0.0))
+}
 
 /// Emission attached to a primitive: constant radiance `le` leaving the side its geometric
 /// normal points to, or both sides when `two_sided`.

@@ -18,6 +18,17 @@
 //! ratio f / p and f(Y) T(X|Y) / (f(X) T(Y|X)) is that of the true measures [Veach 1997,
 //! §8.3.2 and §10.3.5]; a connection (deterministic edge) must join two non-delta vertices.
 //!
+//! **Light from infinitely far away** (environment and directional light) [Veach 1997,
+//! §8.3.3 on emitters at infinity; pbrt-v4 §13.9]: x₀ is a direction, not a point — the vertex
+//! stores the unit direction ω in which its light travels into the scene (in `ng`), and its
+//! measure is solid angle. The edge (x₀, x₁) then has G = |cos θ₁| (no distance, no cosine
+//! at x₀; [`direction`] reports distance 1 for it), Le is the environment's radiance arriving
+//! from −ω (a directional light's irradiance E, the coefficient of its delta in direction),
+//! the light side draws x₀ with the environment's importance sampling (a directional light:
+//! the probability of choosing it) and x₁ through the disc of [`crate::light::parallel_ray_origin`],
+//! area density |cos θ₁| / πR², and the eye side reaches x₀ by a ray that leaves the scene, with
+//! the BSDF's solid-angle density (never a directional light's delta).
+//!
 //! Directions at a surface vertex must lie on the sides that the shading frame and the
 //! geometric normal agree on (as in the path tracer); otherwise f = 0.
 //!
@@ -27,11 +38,12 @@
 pub mod walk;
 
 use crate::bsdf::{Bsdf, TransportMode};
-use crate::geometry::{Frame, spawn_shadow_ray};
+use crate::geometry::{Frame, spawn_ray, spawn_shadow_ray};
+use crate::light::delta::DeltaLight;
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
 use std::borrow::Cow;
-use std::f32::consts::FRAC_1_PI;
+use std::f32::consts::{FRAC_1_PI, PI};
 
 /// What a vertex is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,6 +56,12 @@ pub enum VertexKind {
     /// delta that every technique able to make such a path shares (the eye side can never
     /// hit it, and the pinhole never sees it).
     DeltaLight(u32),
+    /// x₀, the environment: light arriving from infinitely far away along direction −`ng`
+    /// (module doc).
+    Environment,
+    /// x₀, directional light `index` of `Scene::delta_lights`, travelling along `ng`: a delta
+    /// in direction, which the eye side can never reach (module doc).
+    Directional(u32),
     /// A scattering point.
     Surface,
     /// x_k, the pinhole.
@@ -98,19 +116,45 @@ impl Vertex {
         }
     }
 
-    /// x₀ at point or spot light `j` of `Scene::delta_lights`; `None` for directional light,
-    /// which has no position (path space does not hold it).
-    pub fn delta_light(scene: &Scene, j: usize) -> Option<Self> {
-        Some(Self {
-            p: scene.delta_lights[j].position()?,
-            ng: Vec3::ZERO,
-            frame: Frame::from_normal(Vec3::Z),
+    /// x₀ at delta light `j` of `Scene::delta_lights`: the position of a point or spot light,
+    /// the direction of a directional light.
+    pub fn delta_light(scene: &Scene, j: usize) -> Self {
+        match scene.delta_lights[j] {
+            DeltaLight::Directional { direction, .. } => {
+                Self::at_infinity(VertexKind::Directional(j as u32), direction)
+            }
+            ref light => Self {
+                p: light.position().unwrap_or(Vec3::ZERO),
+                ng: Vec3::ZERO,
+                frame: Frame::from_normal(Vec3::Z),
+                prim: u32::MAX,
+                material: u32::MAX,
+                uv: Vec2::ZERO,
+                kind: VertexKind::DeltaLight(j as u32),
+                delta: false,
+            },
+        }
+    }
+
+    /// x₀ on the environment, its light travelling along unit `travel` (from the light into
+    /// the scene; an eye ray leaving the scene along d reaches the vertex with `travel` = −d).
+    pub fn environment(travel: Vec3) -> Self {
+        Self::at_infinity(VertexKind::Environment, travel)
+    }
+
+    /// A vertex infinitely far away whose light travels along `travel` (module doc). Its
+    /// position is never read: [`direction`] and [`visible`] use `travel`.
+    fn at_infinity(kind: VertexKind, travel: Vec3) -> Self {
+        Self {
+            p: Vec3::ZERO,
+            ng: travel,
+            frame: Frame::from_normal(travel),
             prim: u32::MAX,
             material: u32::MAX,
             uv: Vec2::ZERO,
-            kind: VertexKind::DeltaLight(j as u32),
+            kind,
             delta: false,
-        })
+        }
     }
 
     /// The pinhole x_k.
@@ -130,6 +174,9 @@ impl Vertex {
 
     /// The same point as x₀ of a path, when it lies on a light (an eye path that hit an emitter).
     pub fn as_light(&self, scene: &Scene) -> Option<Self> {
+        if self.kind == VertexKind::Environment {
+            return Some(*self);
+        }
         if self.prim == u32::MAX {
             return None;
         }
@@ -137,10 +184,24 @@ impl Vertex {
         Some(Self::light(scene, light, self.p, self.ng))
     }
 
-    /// x₀ of a path: a point on an area light or a point or spot light.
+    /// x₀ of a path: a point on an area light, a point or spot light, the environment or a
+    /// directional light.
     #[inline]
     pub fn is_light(&self) -> bool {
-        matches!(self.kind, VertexKind::Light(_) | VertexKind::DeltaLight(_))
+        !matches!(self.kind, VertexKind::Surface | VertexKind::Eye)
+    }
+
+    /// Environment or directional light: a direction rather than a point (module doc).
+    #[inline]
+    pub fn is_at_infinity(&self) -> bool {
+        matches!(self.kind, VertexKind::Environment | VertexKind::Directional(_))
+    }
+
+    /// Can the eye side's random walk reach this light vertex (an emitting surface or the
+    /// environment; never a point, spot or directional light, whose measure is a delta)?
+    #[inline]
+    pub fn is_hittable_light(&self) -> bool {
+        matches!(self.kind, VertexKind::Light(_) | VertexKind::Environment)
     }
 
     #[inline]
@@ -160,9 +221,16 @@ impl Vertex {
     }
 }
 
-/// Unit direction from `a` to `b`, and the squared distance.
+/// Unit direction from `a` to `b`, and the squared distance; 1 when either lies at infinity
+/// (its measure is solid angle: the distance drops out of G and of every density conversion).
 #[inline]
 pub fn direction(a: &Vertex, b: &Vertex) -> (Vec3, f32) {
+    if a.is_at_infinity() {
+        return (a.ng, 1.0);
+    }
+    if b.is_at_infinity() {
+        return (-b.ng, 1.0);
+    }
     let d = b.p - a.p;
     let d2 = d.length_squared();
     if d2 > 0.0 {
@@ -173,36 +241,46 @@ pub fn direction(a: &Vertex, b: &Vertex) -> (Vec3, f32) {
 }
 
 /// |cos θ| of direction `d` at vertex `v`: 1 at a point or spot light, whose emission is an
-/// intensity (Le G becomes I |cos θ₁| / r² [Veach 1997, §8.1.1 on point sources]).
+/// intensity (Le G becomes I |cos θ₁| / r² [Veach 1997, §8.1.1 on point sources]), and at a
+/// light infinitely far away (module doc).
 #[inline]
 pub fn cos_at(v: &Vertex, d: Vec3) -> f32 {
-    if let VertexKind::DeltaLight(_) = v.kind {
-        1.0
-    } else {
+    if v.is_surface() || v.kind == VertexKind::Eye || matches!(v.kind, VertexKind::Light(_)) {
         v.ng.dot(d).abs()
+    } else {
+        1.0
     }
 }
 
-/// |cos θ_b| / |a − b|²: turns a solid-angle density at `a` into an area density at `b`.
+/// |cos θ_b| / |a − b|²: turns a solid-angle density at `a` into an area density at `b` (1
+/// when `b` lies at infinity, whose densities are solid-angle ones).
 #[inline]
 pub fn solid_angle_to_area(a: &Vertex, b: &Vertex) -> f32 {
     let (d, d2) = direction(a, b);
-    if d2 == 0.0 { 0.0 } else { b.ng.dot(d).abs() / d2 }
+    if d2 == 0.0 { 0.0 } else { cos_at(b, d) / d2 }
 }
 
 /// The camera factor C(x) = du/dA(x) of a vertex seen from the pinhole, with its raster
-/// position; `None` outside the image or behind the camera, and for a point or spot light
-/// (zero normal: a point the pinhole cannot see).
+/// position (du/dω for the environment, whose measure is solid angle); `None` outside the
+/// image or behind the camera, and for point, spot and directional light (a delta the pinhole
+/// cannot see).
 pub fn camera_factor(scene: &Scene, x: &Vertex) -> Option<(Vec2, f32)> {
-    let cam = &scene.camera;
-    let d = x.p - cam.eye;
-    let r2 = d.length_squared();
-    if r2 == 0.0 {
+    if matches!(x.kind, VertexKind::DeltaLight(_) | VertexKind::Directional(_)) {
         return None;
     }
-    let d = d / r2.sqrt();
+    let cam = &scene.camera;
+    let (d, r2) = if x.is_at_infinity() {
+        (-x.ng, 1.0)
+    } else {
+        let d = x.p - cam.eye;
+        let r2 = d.length_squared();
+        if r2 == 0.0 {
+            return None;
+        }
+        (d / r2.sqrt(), r2)
+    };
     let raster = cam.raster_position(d)?;
-    let c = cam.raster_per_solid_angle(d) * x.ng.dot(d).abs() / r2;
+    let c = cam.raster_per_solid_angle(d) * cos_at(x, d) / r2;
     (c > 0.0 && c.is_finite()).then_some((raster, c))
 }
 
@@ -259,13 +337,19 @@ pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
     }
 }
 
-/// Emitted radiance Le(x₀ → x₁) (the intensity I(x₀ → x₁) at a point or spot light).
+/// Emitted radiance Le(x₀ → x₁) (the intensity I(x₀ → x₁) at a point or spot light, the
+/// irradiance E of a directional light).
 pub fn emitted(scene: &Scene, path: &[Vertex]) -> Vec3 {
     let d = direction(&path[0], &path[1]).0;
     match path[0].kind {
         VertexKind::Light(l) => scene.lights[l as usize].le(path[0].ng, d),
         VertexKind::DeltaLight(j) => scene.delta_lights[j as usize].intensity(d),
-        _ => Vec3::ZERO,
+        VertexKind::Environment => scene.environment.as_ref().map_or(Vec3::ZERO, |env| env.le(-d)),
+        VertexKind::Directional(j) => match scene.delta_lights[j as usize] {
+            DeltaLight::Directional { irradiance, .. } => irradiance,
+            _ => Vec3::ZERO,
+        },
+        VertexKind::Surface | VertexKind::Eye => Vec3::ZERO,
     }
 }
 
@@ -300,18 +384,29 @@ pub fn contribution(scene: &Scene, path: &[Vertex]) -> Option<(Vec3, Vec2)> {
 }
 
 /// Area density with which the *light* side produces vertex i from i−1 (and i−2): x₀ by
-/// choosing a light ∝ power and a point uniformly on it (a point or spot light: the
-/// probability of choosing it), x₁ by cosine-distributed emission (a point: uniform over the
-/// sphere; a spot: uniform in its cutoff cone), later vertices by sampling the BSDF at x_{i−1}
-/// (its lobe probability if specular).
+/// choosing a light ∝ power and a point uniformly on it (a point, spot or directional light:
+/// the probability of choosing it; the environment: that times its solid-angle density), x₁
+/// by cosine-distributed emission (a point: uniform over the sphere; a spot: uniform in its
+/// cutoff cone; light from infinity: through the disc, |cos θ₁| / πR²), later vertices by
+/// sampling the BSDF at x_{i−1} (its lobe probability if specular).
 pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
     match (i, path[0].kind) {
         (0, VertexKind::Light(l)) => {
             let light = &scene.lights[l as usize];
             scene.light_selection.pmf(l as usize) / light.area
         }
-        (0, VertexKind::DeltaLight(j)) => scene.light_selection.pmf(scene.lights.len() + j as usize),
+        (0, VertexKind::DeltaLight(j) | VertexKind::Directional(j)) => {
+            scene.light_selection.pmf(scene.lights.len() + j as usize)
+        }
+        (0, VertexKind::Environment) => match (&scene.environment, scene.environment_index()) {
+            (Some(env), Some(e)) => scene.light_selection.pmf(e) * env.pdf(-path[0].ng),
+            _ => 0.0,
+        },
         (0 | 1, VertexKind::Surface | VertexKind::Eye) => 0.0,
+        (1, VertexKind::Environment | VertexKind::Directional(_)) => {
+            let radius = scene.bounding_sphere().1;
+            solid_angle_to_area(&path[0], &path[1]) / (PI * radius * radius)
+        }
         (1, VertexKind::DeltaLight(j)) => {
             let (d, _) = direction(&path[0], &path[1]);
             scene.delta_lights[j as usize].pdf_emit_dir(d) * solid_angle_to_area(&path[0], &path[1])
@@ -348,6 +443,9 @@ pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
 /// x_{i+1}.
 pub fn pdf_eye_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
     let k = path.len() - 1;
+    if !path[i].is_surface() && !path[i].is_hittable_light() {
+        return 0.0;
+    }
     if i + 1 == k {
         let pixels = scene.camera.pixel_count() as f32;
         return camera_factor(scene, &path[i]).map_or(0.0, |(_, c)| c / pixels);
@@ -375,8 +473,16 @@ fn direction_pdf(scene: &Scene, v: &Vertex, wo: Vec3, wi: Vec3, mode: TransportM
     }
 }
 
-/// Is the straight segment between two vertices free of occluders?
+/// Is the straight segment between two vertices free of occluders (for a vertex at infinity,
+/// the ray from the other one toward it)?
 pub fn visible(scene: &Scene, a: &Vertex, b: &Vertex) -> bool {
+    if let Some((far, near)) = match (a.is_at_infinity(), b.is_at_infinity()) {
+        (true, false) => Some((a, b)),
+        (false, true) => Some((b, a)),
+        _ => None,
+    } {
+        return scene.unoccluded(&spawn_ray(near.p, near.ng, -far.ng));
+    }
     let (ray, dist) = spawn_shadow_ray(a.p, a.ng, b.p, b.ng);
     dist > 0.0 && ray.d.is_finite() && scene.unoccluded(&ray)
 }

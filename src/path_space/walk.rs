@@ -6,6 +6,7 @@
 use super::{Vertex, VertexKind, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, spawn_ray};
+use crate::light::parallel_ray_origin;
 use crate::sampling::{Rng, sample_cosine_hemisphere};
 use crate::scene::Scene;
 use crate::scene::light_selection::Emitter;
@@ -15,6 +16,16 @@ use glam::{Vec2, Vec3};
 #[inline]
 pub fn trace(scene: &Scene, ray: &Ray) -> Option<Vertex> {
     scene.intersect(ray).map(|hit| Vertex::surface(scene, &hit))
+}
+
+/// The first surface hit along `ray`, or where it leaves the scene when the scene has an
+/// environment: the vertex x₀ on the environment the eye side reaches (its walk ends there).
+#[inline]
+pub fn trace_eye(scene: &Scene, ray: &Ray) -> Option<Vertex> {
+    match scene.intersect(ray) {
+        Some(hit) => Some(Vertex::surface(scene, &hit)),
+        None => scene.environment.as_ref().map(|_| Vertex::environment(-ray.d)),
+    }
 }
 
 /// The first surface hit leaving vertex `v` in unit direction `d`.
@@ -37,8 +48,8 @@ pub fn sample_direction(scene: &Scene, v: &Vertex, from: &Vertex, mode: Transpor
 }
 
 /// A light vertex x₀: an emitter chosen ∝ power, a point uniformly on it (the position of a
-/// point or spot light). `None` for directional and environment light, which path space does
-/// not hold (the strategies built on it refuse such scenes, [`crate::strategy::check_scene`]).
+/// point or spot light, the direction of a directional light, a direction from the
+/// environment's importance sampling). `None` when the environment's sample carries nothing.
 pub fn sample_light_vertex(scene: &Scene, rng: &mut Rng) -> Option<Vertex> {
     let (i, _, _) = scene.light_selection.sample(rng.uniform());
     match scene.emitter(i) {
@@ -47,8 +58,11 @@ pub fn sample_light_vertex(scene: &Scene, rng: &mut Rng) -> Option<Vertex> {
             let lp = light.sample_point(&scene.primitives[light.prim as usize], rng.uniform2());
             Some(Vertex::light(scene, l, lp.p, lp.n))
         }
-        Emitter::Delta(j) => Vertex::delta_light(scene, j),
-        Emitter::Environment => None,
+        Emitter::Delta(j) => Some(Vertex::delta_light(scene, j)),
+        Emitter::Environment => {
+            let s = scene.environment.as_ref()?.sample(rng.uniform2())?;
+            Some(Vertex::environment(-s.wi))
+        }
     }
 }
 
@@ -73,6 +87,10 @@ pub fn extend_light_side(scene: &Scene, path: &mut Vec<Vertex>, n: usize, rng: &
                         light
                             .emit(rng.uniform2(), scene.bounding_sphere())
                             .and_then(|e| trace(scene, &Ray::new(x0.p, e.dir)))
+                    }
+                    VertexKind::Environment | VertexKind::Directional(_) => {
+                        let origin = parallel_ray_origin(-x0.ng, scene.bounding_sphere(), rng.uniform2());
+                        trace(scene, &Ray::new(origin, x0.ng))
                     }
                     _ => return false,
                 }

@@ -51,8 +51,9 @@ use super::record::{Photon, flags};
 use crate::bsdf::{SurfaceKind, TransportMode};
 use crate::error::{Error, Result};
 use crate::geometry::{Frame, Ray, spawn_ray};
+use crate::light::parallel_ray_origin;
 use crate::sampling::stream;
-use crate::sampling::{Rng, sample_concentric_disk, sample_cosine_hemisphere};
+use crate::sampling::{Rng, sample_cosine_hemisphere};
 use crate::scene::Scene;
 use crate::scene::light_selection::Emitter;
 use glam::{DVec3, Vec3};
@@ -254,10 +255,9 @@ pub struct TracedPath {
 fn environment_photon(scene: &Scene, p_env: f32, emitted: u64, rng: &mut Rng) -> Option<(Ray, Vec3)> {
     let env = scene.environment.as_ref()?;
     let s = env.sample(rng.uniform2())?;
-    let (center, radius) = scene.bounding_sphere();
-    let disc = sample_concentric_disk(rng.uniform2()) * radius;
-    let frame = Frame::from_normal(s.wi);
-    let origin = center + radius * s.wi + frame.to_world(Vec3::new(disc.x, disc.y, 0.0));
+    let sphere = scene.bounding_sphere();
+    let radius = sphere.1;
+    let origin = parallel_ray_origin(s.wi, sphere, rng.uniform2());
     let power = s.le * (PI * radius * radius / (p_env * s.pdf_w * emitted as f32));
     (power.is_finite() && power.max_element() > 0.0).then(|| (Ray::new(origin, -s.wi), power))
 }

@@ -33,11 +33,10 @@ use super::{Declared, Strategy};
 use crate::bsdf::TransportMode;
 use crate::error::Result;
 use crate::film::Film;
+use crate::geometry::spawn_ray;
 use crate::params::{Params, Range};
-use crate::path_space::walk::{extend_light_side, join, trace, trace_from};
-use crate::path_space::{
-    Vertex, VertexKind, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible,
-};
+use crate::path_space::walk::{extend_light_side, join, trace_eye, trace_from};
+use crate::path_space::{Vertex, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -131,14 +130,18 @@ impl Bdpt {
     }
 
     /// The eye sub-path through `raster`: z₀ the pinhole, then up to `max_depth + 1` surface
-    /// vertices. Throughput for roulette: the product of f_s |cos| / p_ω along the walk.
+    /// vertices, ended by the environment where a ray leaves a scene that has one.
+    /// Throughput for roulette: the product of f_s |cos| / p_ω along the walk.
     pub(super) fn eye_subpath(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> SubPath {
         let mut sub = SubPath::default();
         sub.push(Vertex::eye(scene), 1.0);
-        let Some(z1) = trace(scene, &scene.camera.generate_ray(raster)) else {
+        let Some(z1) = trace_eye(scene, &scene.camera.generate_ray(raster)) else {
             return sub;
         };
         sub.push(z1, 1.0);
+        if z1.is_at_infinity() {
+            return sub;
+        }
         let (mut beta, mut q) = (Vec3::ONE, 1.0);
         while sub.vertices.len() < self.params.max_depth as usize + 2 {
             let n = sub.vertices.len();
@@ -155,8 +158,13 @@ impl Bdpt {
                 beta /= survive as f32;
             }
             q *= survive;
-            let Some(next) = trace_from(scene, &v, d) else { break };
+            let Some(next) = trace_eye(scene, &spawn_ray(v.p, v.ng, d)) else {
+                break;
+            };
             sub.push(next, q);
+            if next.is_at_infinity() {
+                break;
+            }
         }
         sub
     }
@@ -235,10 +243,11 @@ impl Bdpt {
         let p = |s: usize| -> f64 { pl[..s].iter().product::<f64>() * pe[s..].iter().product::<f64>() };
         // Technique s' joins x_{s'−1} and x_{s'}: both must be non-specular (the pinhole and a
         // hit of the eye walk on a light always may).
-        // The eye walk cannot hit a point or spot light (s' = 0 needs x₀ on an area light).
+        // The eye walk cannot hit a point, spot or directional light (s' = 0 needs x₀ on an
+        // area light or the environment).
         let valid = |s: usize| {
             if s == 0 {
-                matches!(path[0].kind, VertexKind::Light(_))
+                path[0].is_hittable_light()
             } else {
                 path[s - 1].connectible() && (s == k || path[s].connectible())
             }
@@ -307,9 +316,9 @@ impl Bdpt {
                     self.splats.fetch_add(1, Relaxed);
                 }
             }
-            // t ≥ 2: y_{s−1} to z_{t−1}.
+            // t ≥ 2: y_{s−1} to z_{t−1} (a surface: not the environment that ends an eye walk).
             for t in 2..=z.len() {
-                if !(y[s - 1].connectible() && z[t - 1].connectible()) {
+                if !(y[s - 1].connectible() && z[t - 1].is_surface() && z[t - 1].connectible()) {
                     continue;
                 }
                 let path = join(&y[..s], &z[..t]);
@@ -379,6 +388,14 @@ fn step_weight(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rn
 
 impl Strategy for Bdpt {
     fn handles_point_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_directional_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_environment(&self) -> bool {
         true
     }
 

@@ -155,6 +155,14 @@ impl Strategy for LightTracing {
         true
     }
 
+    fn handles_directional_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

@@ -307,6 +307,14 @@ impl Strategy for Vcm {
         true
     }
 
+    fn handles_directional_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }
