@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Cross-check our `path` against Mitsuba 3 on every Mitsuba 3 scene of a directory.
+"""Cross-check our `path` (or another unbiased strategy: --strategy, --set, as in
+crosscheck_mitsuba.py) against Mitsuba 3 on every Mitsuba 3 scene of a directory.
 
     cargo build --release
     python3 -m pip install mitsuba==3.9.1 numpy
@@ -139,6 +140,8 @@ def main():
     ap.add_argument("--only", nargs="*", help="scene file names to run (default: all)")
     ap.add_argument("--report", help="also write the table as Markdown to this file")
     ap.add_argument("--bench", default="target/release/bench")
+    ap.add_argument("--strategy", default="path", help="our strategy (an unbiased one; default path)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="a parameter of --strategy")
     ap.add_argument(
         "--rfilter",
         choices=["box", "keep", "tent", "gaussian"],
@@ -185,8 +188,12 @@ def main():
                 continue
             row = {"scene": name, "filter": any(r.endswith(name) for r in replaced)}
             out = os.path.join(tmp, "ours")
+            # Our importer and the strategy each refuse what they do not handle, before rendering.
             probe = subprocess.run(
-                [bench, "reference", path, "--spp", "1", "--out", out, "--force"],
+                [bench, "reference", path, "--spp", "1", "--out", out, "--force"]
+                if args.strategy == "path"
+                else [bench, "render", path, "--strategy", args.strategy, "--spp", "1", "--out",
+                      os.path.join(out, "probe.exr"), "--force", *[a for v in args.set for a in ("--set", v)]],
                 capture_output=True,
                 text=True,
             )
@@ -208,7 +215,8 @@ def main():
             t_mitsuba = time.perf_counter() - t0
             t0 = time.perf_counter()
             ours = render_ours(bench, path, args.spp, args.seeds, args.max_depth, tmp,
-                               ["--light-selection", "uniform", "--sphere-light-sampling", "cone"])
+                               ["--light-selection", "uniform", "--sphere-light-sampling", "cone"],
+                               strategy=args.strategy, sets=args.set)
             t_ours = time.perf_counter() - t0
             h, w = ours.shape[1:3]
             print(f"{name}: {w}x{h}, {args.seeds} seeds x {args.spp} spp; Mitsuba {t_mitsuba:.1f} s, ours {t_ours:.1f} s")
@@ -218,7 +226,7 @@ def main():
     counts = {s: sum(r["status"] == s for r in rows) for s in ("passed", "FAILED", "refused", "mitsuba refused")}
     loaded = counts["passed"] + counts["FAILED"]
     lines = [
-        f"# Mitsuba 3 corpus: {args.dir}",
+        f"# Mitsuba 3 corpus: {args.dir}, our `{args.strategy}` {' '.join(args.set)}",
         "",
         f"{len(rows)} scenes: **{loaded} loaded, {counts['passed']} passed, {counts['FAILED']} failed, "
         f"{counts['refused']} refused by photon-bench**, {counts['mitsuba refused']} refused by Mitsuba "

@@ -1,9 +1,18 @@
 #!/usr/bin/env python3
-"""Cross-check our `path` against Mitsuba 3's `path` integrator on the same scene.
+"""Cross-check our `path` (or any unbiased strategy) against Mitsuba 3's `path` integrator on
+the same scene.
 
     cargo build --release
     python3 -m pip install mitsuba==3.9.1
     python3 scripts/crosscheck_mitsuba.py scenes/cornell-spheres.toml --size 64 64 --spp 16 --seeds 16
+    python3 scripts/crosscheck_mitsuba.py scenes/mitsuba/veach-mis.xml --strategy bdpt
+
+With --strategy KIND (and --set NAME=VALUE for its parameters) our side is that strategy,
+rendered by `bench render` with max_depth = --max-depth and rr_depth = --max-depth (no Russian
+roulette); it must be unbiased (`path`, `bdpt`, `light`, `vcm` with mode = "bpt", `ppg`,
+`photon_guided`): the test compares means, and a consistent estimator's bias would fail it.
+`light` leaves out paths whose last bounce before the eye is specular (module doc of
+src/strategy/light.rs), so it passes only on scenes without mirrors or glass seen directly.
 
 Steps: `bench export-mitsuba` writes the scene as Mitsuba 3 XML (resized with --size); Mitsuba
 3.9.1 (`scalar_rgb`, box filter) and our `path` (`bench reference`, which renders the same XML
@@ -172,21 +181,26 @@ def render_mitsuba(scene, spp, seeds, max_depth):
     )
 
 
-def render_ours(bench, scene_file, spp, seeds, max_depth, tmp, extra=(), threads=()):
+def render_ours(bench, scene_file, spp, seeds, max_depth, tmp, extra=(), threads=(), strategy="path", sets=()):
     """K images (seeds 0 … K - 1) of our `path` via `bench reference`, no roulette; `extra` are
-    more `bench reference` arguments (light selection), `threads` the global `--threads N`."""
+    more `bench reference` arguments (light selection), `threads` the global `--threads N`.
+    Another `strategy` renders via `bench render` with max_depth = rr_depth = `max_depth` and
+    the NAME=VALUE parameters `sets` (`extra` is then not used)."""
     stem = os.path.splitext(os.path.basename(scene_file))[0]
     images = []
     for k in range(seeds):
         out = os.path.join(tmp, f"ours{k}")
-        subprocess.run(
-            [bench, *threads, "reference", scene_file, "--spp", str(spp), "--seed", str(k), "--out", out, "--force",
-             "--max-depth", str(max_depth), "--rr-depth", str(max_depth), *extra],
-            check=True,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-        images.append(read_exr(os.path.join(out, f"{stem}.exr")))
+        if strategy == "path":
+            command = [bench, *threads, "reference", scene_file, "--spp", str(spp), "--seed", str(k), "--out", out,
+                       "--force", "--max-depth", str(max_depth), "--rr-depth", str(max_depth), *extra]
+            exr = os.path.join(out, f"{stem}.exr")
+        else:
+            exr = os.path.join(out, f"{stem}.exr")
+            depth = [f"max_depth={max_depth}", f"rr_depth={max_depth}"]
+            command = [bench, *threads, "render", scene_file, "--strategy", strategy, "--spp", str(spp), "--seed",
+                       str(k), "--out", exr, "--force", *[a for v in [*depth, *sets] for a in ("--set", v)]]
+        subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        images.append(read_exr(exr))
     return np.stack(images)
 
 
@@ -199,6 +213,8 @@ def main():
     ap.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), help="render at this resolution")
     ap.add_argument("--bench", default="target/release/bench")
     ap.add_argument("--threads", type=int, default=0, help="0: all cores")
+    ap.add_argument("--strategy", default="path", help="our strategy (an unbiased one; default path)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="a parameter of --strategy")
     args = ap.parse_args()
 
     # The t distribution's tail must be right before any verdict rests on it.
@@ -227,11 +243,13 @@ def main():
         theirs = render_mitsuba(mi.load_file(xml), args.spp, args.seeds, args.max_depth)
         t_mitsuba = time.perf_counter() - t0
         t0 = time.perf_counter()
-        ours = render_ours(args.bench, xml, args.spp, args.seeds, args.max_depth, tmp, threads=threads)
+        ours = render_ours(args.bench, xml, args.spp, args.seeds, args.max_depth, tmp, threads=threads,
+                           strategy=args.strategy, sets=args.set)
         t_ours = time.perf_counter() - t0
     h, w = ours.shape[1:3]
     print(
-        f"{args.scene}: {w}x{h}, {args.seeds} seeds x {args.spp} spp per renderer, our max_depth {args.max_depth} "
+        f"{args.scene}: our {args.strategy} {' '.join(args.set)}: {w}x{h}, {args.seeds} seeds x {args.spp} spp per "
+        f"renderer, our max_depth {args.max_depth} "
         f"= Mitsuba {mi.__version__} max_depth {args.max_depth + 1}, no Russian roulette; "
         f"render time Mitsuba {t_mitsuba:.1f} s, ours {t_ours:.1f} s"
     )

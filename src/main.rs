@@ -85,6 +85,32 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Render one image of a scene with any strategy: an EXR and its provenance (.json).
+    Render {
+        /// The scene file, e.g. scenes/veach-mis.xml.
+        scene: PathBuf,
+        /// The strategy kind (`bench list` shows every kind and parameter).
+        #[arg(long)]
+        strategy: String,
+        /// A strategy parameter, NAME=VALUE (repeatable), as in an experiment's [[strategy]]
+        /// table: VALUE is a TOML value, or a string (`--set mode=bpt`).
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+        /// A Mitsuba scene parameter, NAME=VALUE (repeatable; see `bench reference`).
+        #[arg(long = "param", value_name = "NAME=VALUE")]
+        params: Vec<String>,
+        /// Samples per pixel.
+        #[arg(long)]
+        spp: u32,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// The EXR to write (its provenance goes beside it, .json).
+        #[arg(long)]
+        out: PathBuf,
+        /// Replace an existing image.
+        #[arg(long)]
+        force: bool,
+    },
     /// Measure throughput: `path` paths/s, rays/s and raw BVH closest-hit rays/s; photons/s,
     /// k-NN queries/s and guided-pdf builds/s.
     Perf {
@@ -387,6 +413,42 @@ fn run_command(command: Command) -> Result<Status> {
             }
             let bar = indicatif::ProgressBar::new(spp as u64);
             let exr = reference::make(&scene, &out, spp, seed, params, |done| bar.set_position(done as u64))?;
+            bar.finish_and_clear();
+            println!("{}", exr.display());
+            Ok(Status::Success)
+        }
+        Command::Render {
+            scene,
+            strategy,
+            set,
+            params: scene_params,
+            spp,
+            seed,
+            out,
+            force,
+        } => {
+            if spp == 0 || spp > 1 << 24 {
+                return Err(Error::new(format!("--spp: expected 1..={}, got {spp}", 1 << 24)));
+            }
+            if out.extension().and_then(|e| e.to_str()) != Some("exr") {
+                return Err(Error::new(format!(
+                    "--out: expected a file name ending in .exr, got {}",
+                    out.display()
+                )));
+            }
+            if out.exists() && !force {
+                return Err(Error::new(format!(
+                    "{}: exists already; pass --force to replace it",
+                    out.display()
+                )));
+            }
+            let params = experiment::render::params_from_args(&set)?;
+            let scene = scene_source(scene, &scene_params)?.load()?;
+            let strategy = experiment::render::prepare(&scene, &strategy, params, seed)?;
+            let bar = indicatif::ProgressBar::new(spp as u64);
+            let exr = experiment::render::render(&scene, &*strategy, spp, seed, &out, |done| {
+                bar.set_position(done as u64)
+            })?;
             bar.finish_and_clear();
             println!("{}", exr.display());
             Ok(Status::Success)

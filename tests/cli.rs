@@ -293,6 +293,78 @@ fn stale_reference_is_refused_with_the_command_that_regenerates_it() {
     assert!(bench(root, &["run", "experiments/tiny.toml"]).status.success());
 }
 
+/// `bench render`: one image by any strategy with its provenance, bit-identical on 1 and 2
+/// threads; an existing image, an unknown strategy or parameter and a wrong file name are
+/// refused with one line and nothing written.
+#[test]
+fn render_writes_one_image_by_any_strategy_with_its_provenance() {
+    let p = project();
+    let root = p.path();
+    let render = |threads: &str, out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "--threads",
+            threads,
+            "render",
+            "scenes/tiny.toml",
+            "--strategy",
+            "bdpt",
+            "--set",
+            "max_depth=3",
+            "--spp",
+            "2",
+            "--seed",
+            "5",
+            "--out",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        bench(root, &args)
+    };
+    let o = render("1", "out/one.exr", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render("2", "out/two.exr", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let read = |name: &str| photon_bench::film::read_exr(&root.join("out").join(name)).unwrap();
+    assert_eq!(read("one.exr").pixels, read("two.exr").pixels, "1 and 2 threads");
+    assert!(read("one.exr").pixels.iter().any(|p| p.max_element() > 0.0));
+    let info: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("out/one.json")).unwrap()).unwrap();
+    assert_eq!(info["strategy"], "bdpt");
+    assert_eq!(info["seed"], 5);
+    assert_eq!(info["spp"], 2);
+    assert_eq!(info["threads"], 1);
+    assert_eq!(info["params"][0], serde_json::json!(["max_depth", "3"]));
+    assert!(info["scene_hash"].as_str().is_some_and(|h| !h.is_empty()));
+
+    assert_refused(&render("1", "out/one.exr", &[]), &["out/one.exr", "--force"]);
+    assert!(render("1", "out/one.exr", &["--force"]).status.success());
+    let files = || std::fs::read_dir(root.join("out")).unwrap().count();
+    let before = files();
+    assert_refused(
+        &bench(
+            root,
+            &[
+                "render",
+                "scenes/tiny.toml",
+                "--strategy",
+                "nope",
+                "--spp",
+                "1",
+                "--out",
+                "out/n.exr",
+            ],
+        ),
+        &["nope"],
+    );
+    assert_refused(&render("1", "out/n.exr", &["--set", "radius=2"]), &["radius"]);
+    assert_refused(
+        &render("1", "out/n.exr", &["--set", "max_depth"]),
+        &["--set", "NAME=VALUE"],
+    );
+    assert_refused(&render("1", "out/n.png", &[]), &["--out", ".exr"]);
+    assert_eq!(files(), before, "nothing written by a refused render");
+}
+
 #[test]
 fn bad_input_is_refused_before_anything_is_written() {
     let p = project();

@@ -238,8 +238,8 @@ fn strategies_that_render_delta_lights_agree_with_path() {
 fn path_space_strategies_render_directional_light() {
     let dir = tempfile::tempdir().unwrap();
     let direction = Vec3::new(0.5, -1.0, 0.25);
-    let sun = format!("type = \"directional\"\ndirection = [0.5, -1, 0.25]\nirradiance = [6, 3, 1.5]");
-    let floor = load(dir.path(), "floor.toml", &floor_under(&sun)).unwrap();
+    let sun = "type = \"directional\"\ndirection = [0.5, -1, 0.25]\nirradiance = [6, 3, 1.5]";
+    let floor = load(dir.path(), "floor.toml", &floor_under(sun)).unwrap();
     let expected = f64::from(0.5 * FRAC_1_PI * 10.5 / direction.length());
     for (kind, spp, slack) in [("light", 64, 0.0), ("bdpt", 4, 0.0), ("vcm", 4, 0.01)] {
         let (m, se) = image_mean(&floor, kind, "max_depth = 3", spp);
@@ -249,7 +249,7 @@ fn path_space_strategies_render_directional_light() {
             "{kind}: {m} ± {se}, expected {expected}"
         );
     }
-    let with_sphere = floor_under(&sun).replace(
+    let with_sphere = floor_under(sun).replace(
         "[[lights]]",
         "[materials.gold]\ntype = \"rough_conductor\"\nmaterial = \"Au\"\nalpha = 0.2\n\n\
          [[shapes]]\ntype = \"sphere\"\nmaterial = \"gold\"\ncenter = [0.3, 0.5, 0]\nradius = 0.5\n\n[[lights]]",
