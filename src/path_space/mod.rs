@@ -5,8 +5,9 @@
 //!
 //! **Contribution** [Fan et al. 2005, eq. (3); Veach 1997, eq. (8.7)]:
 //! f(X) = Le(x₀→x₁) G(x₀,x₁) Π_{i=1}^{k−1} f_s(x_{i−1}→x_i→x_{i+1}) G(x_i,x_{i+1}),
-//! with G(a,b) = |cos θ_a| |cos θ_b| / |a − b|² (visibility is checked by whoever builds a new
-//! edge: traced edges are visible by construction, connections cast a shadow ray). The last
+//! with G(a,b) = |cos θ_a| |cos θ_b| / |a − b|², θ_b (the end nearer the eye) against the
+//! shading normal ([`geometry`]; visibility is checked by whoever builds a new edge: traced
+//! edges are visible by construction, connections cast a shadow ray). The last
 //! factor, for the edge to the pinhole, is the camera's importance in raster units:
 //! C(x_{k−1}) = du/dA(x_{k−1}) = s² |cos θ_x| / (r² cos³ θ_cam) ([`camera_factor`]), zero outside
 //! the image. With it, ∫ f dμ is the sum over pixels of the pixel values (pixel area 1), so the
@@ -326,14 +327,26 @@ pub fn scattering(scene: &Scene, path: &[Vertex], i: usize) -> Vec3 {
     }
 }
 
-/// Geometry term G(x_i, x_{i+1}) without visibility.
+/// Geometry term G(x_i, x_{i+1}) of an edge, `a` = x_i on the light side, `b` = x_{i+1} on the
+/// eye side, without visibility: |cos θ_a| |cos θ_b| / |a − b|², where θ_b is measured against
+/// b's *shading* normal when b is a surface vertex, θ_a against a's geometric normal. That is
+/// the rendering equation with shading normals, L(b→·) = ∫ f_s L(a→b) |n_s(b)·ω| dω with
+/// dω = |n_g(a)·ω| / |a − b|² dA(a), what `path` (and Mitsuba) integrate, so every strategy
+/// built on path space estimates the same image as `path` on smooth-shaded meshes; light
+/// sub-paths, whose densities convert with geometric cosines, get Veach's adjoint correction
+/// for shading normals [Veach 1997, eq. (5.19)] from the ratio f / p without further code.
 #[inline]
 pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
     let (d, d2) = direction(a, b);
     if d2 == 0.0 {
         0.0
     } else {
-        cos_at(a, d) * cos_at(b, d) / d2
+        let cos_b = if b.is_surface() {
+            b.frame.n.dot(d).abs()
+        } else {
+            cos_at(b, d)
+        };
+        cos_at(a, d) * cos_b / d2
     }
 }
 
