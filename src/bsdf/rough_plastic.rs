@@ -161,15 +161,23 @@ impl CoatingTables {
         let mus: Vec<f32> = (0..TRANSMITTANCE_RES)
             .map(|i| (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6))
             .collect();
+        // About a million visible-normal samples per material: the angles run in parallel (the
+        // sums are per angle and added in a fixed order, so the tables do not depend on the
+        // thread count).
+        use rayon::prelude::*;
+        let transmittance: Vec<f64> = mus
+            .par_iter()
+            .map(|&mu| interface_transmittance(distribution, mu, eta))
+            .collect();
         let mut external_transmittance = [0.0; TRANSMITTANCE_RES];
-        for (t, &mu) in external_transmittance.iter_mut().zip(&mus) {
-            *t = interface_transmittance(distribution, mu, eta) as f32;
+        for (t, v) in external_transmittance.iter_mut().zip(transmittance) {
+            *t = v as f32;
         }
-        let internal = mus
-            .iter()
+        let reflectance: Vec<f64> = mus
+            .par_iter()
             .map(|&mu| interface_reflectance(distribution, mu, 1.0 / eta) * mu as f64)
-            .sum::<f64>()
-            / TRANSMITTANCE_RES as f64;
+            .collect();
+        let internal = reflectance.iter().sum::<f64>() / TRANSMITTANCE_RES as f64;
         Self {
             external_transmittance,
             internal_reflectance: (2.0 * internal) as f32,
