@@ -1,21 +1,46 @@
-//! Pinhole camera.
+//! The camera: a pinhole, a thin lens or an orthographic projection (Mitsuba's `perspective`,
+//! `thinlens` and `orthographic` sensors, [`Lens`]), with an optional crop window (Mitsuba's
+//! `hdrfilm` crop): the projection is the full film's, the image the window's.
 
 use crate::geometry::Ray;
 use crate::pixel_filter::PixelFilter;
+use crate::sampling::{Rng, sample_concentric_disk};
 use glam::{Vec2, Vec3};
 
+/// How rays leave the camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lens {
+    /// Every ray through the eye point (Mitsuba's `perspective`).
+    Pinhole,
+    /// A thin lens of radius `aperture_radius` at the eye, in focus at `focus_distance` along
+    /// the view direction (Mitsuba's `thinlens`): the ray through raster point r leaves a point
+    /// uniform on the lens disc toward where the pinhole ray through r meets the plane of focus.
+    Thin { aperture_radius: f32, focus_distance: f32 },
+    /// Parallel rays along the view direction from a rectangle of half extents `half_w` ×
+    /// `half_h` (scene units) centred on the eye (Mitsuba's `orthographic`).
+    Orthographic { half_w: f32, half_h: f32 },
+}
+
 /// A pinhole camera looking from `eye` toward `look_at`; `fov_y_deg` is the full vertical field
-/// of view. Raster coordinates run from (0, 0) at the top-left corner to (width, height).
+/// of view of the full film. Raster coordinates run from (0, 0) at the top-left corner of the
+/// image to (width, height); the image is the crop window of the film when there is one.
 #[derive(Clone, Debug)]
 pub struct Camera {
     pub eye: Vec3,
     pub look_at: Vec3,
     pub up: Vec3,
     pub fov_y_deg: f32,
+    /// The image's size in pixels: the crop window's, or the film's without one.
     pub width: u32,
     pub height: u32,
+    /// The full film's size, which the field of view spans.
+    pub film: (u32, u32),
+    /// The crop window's top-left pixel on the film ((0, 0) without a crop).
+    pub crop_offset: (u32, u32),
     /// The pixel reconstruction filter ([`crate::pixel_filter`]; the box by default).
     pub filter: PixelFilter,
+    /// Pinhole (default), thin lens or orthographic.
+    pub lens: Lens,
     /// Camera basis: right, true up, forward (unit vectors).
     right: Vec3,
     true_up: Vec3,
@@ -41,7 +66,10 @@ impl Camera {
             fov_y_deg,
             width,
             height,
+            film: (width, height),
+            crop_offset: (0, 0),
             filter: PixelFilter::Box,
+            lens: Lens::Pinhole,
             right,
             true_up,
             forward,
@@ -58,6 +86,49 @@ impl Camera {
     pub fn with_filter(mut self, filter: PixelFilter) -> Self {
         self.filter = filter;
         self
+    }
+
+    /// The same camera with lens `lens` (the caller has checked its parameters are positive).
+    pub fn with_lens(mut self, lens: Lens) -> Self {
+        self.lens = lens;
+        self
+    }
+
+    /// Whether every ray leaves the eye point (what path space's camera vertex assumes).
+    #[inline]
+    pub fn is_pinhole(&self) -> bool {
+        self.lens == Lens::Pinhole
+    }
+
+    /// The same camera rendering only the film's pixels [x, x + w) × [y, y + h), `offset` =
+    /// (x, y) and `size` = (w, h), which the caller has checked lie on the film.
+    pub fn with_crop(mut self, offset: (u32, u32), size: (u32, u32)) -> Self {
+        debug_assert!(offset.0 + size.0 <= self.film.0 && offset.1 + size.1 <= self.film.1);
+        self.crop_offset = offset;
+        (self.width, self.height) = size;
+        self
+    }
+
+    /// The same view at 1/`factor` of the resolution (crop window and pixel filter kept).
+    pub fn downscaled(&self, factor: u32) -> Self {
+        let f = factor.max(1);
+        let shrink = |v: u32| (v / f).max(1);
+        let film = (shrink(self.film.0), shrink(self.film.1));
+        let mut c = Camera::new(self.eye, self.look_at, self.up, self.fov_y_deg, film.0, film.1)
+            .with_filter(self.filter.clone())
+            .with_lens(self.lens);
+        let offset = (
+            (self.crop_offset.0 / f).min(film.0 - 1),
+            (self.crop_offset.1 / f).min(film.1 - 1),
+        );
+        let size = (
+            shrink(self.width).min(film.0 - offset.0),
+            shrink(self.height).min(film.1 - offset.1),
+        );
+        if (offset, size) != ((0, 0), film) {
+            c = c.with_crop(offset, size);
+        }
+        c
     }
 
     /// The raster position of a sample of pixel `pixel` (row-major index) drawn with `u`,
@@ -81,13 +152,66 @@ impl Camera {
         self.filter.splat_one(raster, (self.width, self.height), u)
     }
 
-    /// The primary ray through raster position `raster` (pixel (x, y) covers [x, x+1) × [y, y+1)).
+    /// The primary ray through raster position `raster` (pixel (x, y) covers [x, x+1) × [y, y+1)),
+    /// drawing the point on a thin lens from `rng` (nothing is drawn for a pinhole or an
+    /// orthographic camera).
+    #[inline]
+    pub fn sample_ray(&self, raster: Vec2, rng: &mut Rng) -> Ray {
+        match self.lens {
+            Lens::Thin { .. } => self.lens_ray(raster, rng.uniform2()),
+            _ => self.generate_ray(raster),
+        }
+    }
+
+    /// The ray through raster position `raster` from the lens point `u_lens` ∈ [0, 1)² (mapped
+    /// to the disc concentrically, as Mitsuba does); the pinhole and orthographic cameras do
+    /// not read it.
+    #[inline]
+    pub fn lens_ray(&self, raster: Vec2, u_lens: Vec2) -> Ray {
+        let Lens::Thin {
+            aperture_radius,
+            focus_distance,
+        } = self.lens
+        else {
+            return self.generate_ray(raster);
+        };
+        // The pinhole ray's direction with forward component 1 (Mitsuba's near-plane point),
+        // scaled to reach the plane of focus.
+        let focus = self.pinhole_direction(raster) * focus_distance;
+        let on_lens = sample_concentric_disk(u_lens) * aperture_radius;
+        let offset = self.right * on_lens.x + self.true_up * on_lens.y;
+        Ray::new(self.eye + offset, (focus - offset).normalize())
+    }
+
+    /// The ray through raster position `raster` (pixel (x, y) covers [x, x+1) × [y, y+1)) from
+    /// the eye point (the lens centre for a thin lens: cache placement, figures), or parallel
+    /// to the view for an orthographic camera.
     #[inline]
     pub fn generate_ray(&self, raster: Vec2) -> Ray {
-        let ndc_x = 2.0 * raster.x / self.width as f32 - 1.0;
-        let ndc_y = 1.0 - 2.0 * raster.y / self.height as f32;
-        let d = self.forward + self.right * (ndc_x * self.half_w) + self.true_up * (ndc_y * self.half_h);
-        Ray::new(self.eye, d.normalize())
+        if let Lens::Orthographic { half_w, half_h } = self.lens {
+            let (ndc_x, ndc_y) = self.ndc(raster);
+            let o = self.eye + self.right * (ndc_x * half_w) + self.true_up * (ndc_y * half_h);
+            return Ray::new(o, self.forward);
+        }
+        Ray::new(self.eye, self.pinhole_direction(raster).normalize())
+    }
+
+    /// The unnormalised direction from the eye through raster position `raster`, with forward
+    /// component 1.
+    #[inline]
+    fn pinhole_direction(&self, raster: Vec2) -> Vec3 {
+        let (ndc_x, ndc_y) = self.ndc(raster);
+        self.forward + self.right * (ndc_x * self.half_w) + self.true_up * (ndc_y * self.half_h)
+    }
+
+    /// Normalised device coordinates in [−1, 1]² (y up) of raster position `raster` on the film.
+    #[inline]
+    fn ndc(&self, raster: Vec2) -> (f32, f32) {
+        let (x, y) = (
+            raster.x + self.crop_offset.0 as f32,
+            raster.y + self.crop_offset.1 as f32,
+        );
+        (2.0 * x / self.film.0 as f32 - 1.0, 1.0 - 2.0 * y / self.film.1 as f32)
     }
 
     /// Raster position where the direction `d` from the eye crosses the image, if it does.
@@ -100,8 +224,8 @@ impl Camera {
         let ndc_x = on_plane.dot(self.right) / self.half_w;
         let ndc_y = on_plane.dot(self.true_up) / self.half_h;
         let raster = Vec2::new(
-            (ndc_x + 1.0) * 0.5 * self.width as f32,
-            (1.0 - ndc_y) * 0.5 * self.height as f32,
+            (ndc_x + 1.0) * 0.5 * self.film.0 as f32 - self.crop_offset.0 as f32,
+            (1.0 - ndc_y) * 0.5 * self.film.1 as f32 - self.crop_offset.1 as f32,
         );
         (raster.x >= 0.0 && raster.y >= 0.0 && raster.x < self.width as f32 && raster.y < self.height as f32)
             .then_some(raster)
@@ -115,13 +239,8 @@ impl Camera {
         if cos <= 0.0 {
             return 0.0;
         }
-        let s = 0.5 * self.height as f32 / self.half_h;
+        let s = 0.5 * self.film.1 as f32 / self.half_h;
         s * s / (cos * cos * cos)
-    }
-
-    /// Area of the image plane at distance 1 from the eye.
-    pub fn image_plane_area(&self) -> f32 {
-        4.0 * self.half_w * self.half_h
     }
 
     pub fn forward(&self) -> Vec3 {
@@ -149,6 +268,30 @@ mod tests {
             assert!((back - raster).length() < 1e-3, "{raster} -> {back}");
         }
         assert!(cam.raster_position(-cam.forward()).is_none());
+    }
+
+    /// A crop window renders exactly the film's pixels it covers: the same rays, the same raster
+    /// Jacobian, raster positions shifted by the offset and `None` outside the window.
+    #[test]
+    fn a_crop_window_is_the_same_projection_shifted() {
+        let full = Camera::new(Vec3::new(0.0, 1.0, 4.0), Vec3::ZERO, Vec3::Y, 40.0, 80, 60);
+        let crop = full.clone().with_crop((30, 10), (20, 25));
+        assert_eq!((crop.width, crop.height, crop.pixel_count()), (20, 25, 500));
+        for raster in [Vec2::new(0.5, 0.5), Vec2::new(19.9, 24.2), Vec2::new(7.3, 11.0)] {
+            let shifted = raster + Vec2::new(30.0, 10.0);
+            let (a, b) = (crop.generate_ray(raster), full.generate_ray(shifted));
+            assert!((a.d - b.d).length() < 1e-6);
+            let back = crop.raster_position(a.d).unwrap();
+            assert!((back - raster).length() < 1e-3, "{raster} -> {back}");
+            assert_eq!(crop.raster_per_solid_angle(a.d), full.raster_per_solid_angle(b.d));
+        }
+        // Film pixels outside the window are not on the image.
+        assert!(crop.raster_position(full.generate_ray(Vec2::new(5.0, 5.0)).d).is_none());
+        let half = crop.downscaled(2);
+        assert_eq!(
+            (half.film, half.crop_offset, half.width, half.height),
+            ((40, 30), (15, 5), 10, 12)
+        );
     }
 
     #[test]

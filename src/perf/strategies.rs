@@ -83,12 +83,7 @@ pub fn measure_strategies(
 /// Rates per pixel sample keep their meaning; costs per image (photon tracing, chains) do not
 /// shrink.
 pub fn downscale(scene: &mut Scene, downscale: u32) {
-    let c = &scene.camera;
-    let (w, h) = (
-        (c.width / downscale.max(1)).max(1),
-        (c.height / downscale.max(1)).max(1),
-    );
-    scene.camera = crate::camera::Camera::new(c.eye, c.look_at, c.up, c.fov_y_deg, w, h);
+    scene.camera = scene.camera.downscaled(downscale);
 }
 
 /// Measures every strategy of an experiment on every scene it runs on, in the file's order

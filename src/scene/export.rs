@@ -1,8 +1,9 @@
 //! `bench export-mitsuba`: a scene description written as an equivalent Mitsuba 3 XML scene.
 //!
 //! Decisions, each chosen so that Mitsuba 3 renders the same image as our `path`:
-//! - the camera is a `perspective` sensor with `fov_axis="y"` (our `fov_y` as is) and a
-//!   `lookat`; the film is an `hdrfilm` with a `box` filter, as our film;
+//! - the camera is a `perspective` (or `thinlens`) sensor with `fov_axis="y"` (our `fov_y` as
+//!   is) and a `lookat`, or an `orthographic` one whose `to_world` scales its camera space to
+//!   the view's extent; the film is an `hdrfilm` with our pixel filter and crop window;
 //! - reflecting materials are wrapped in `twosided`, since ours reflect on both sides and
 //!   Mitsuba's are black from behind; a `mirror` is a `conductor` with `material="none"`; a
 //!   `dielectric` gets `ext_ior = 1` (Mitsuba's default outside is air, 1.000277);
@@ -79,10 +80,42 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         escape(&file.replace("--", "-"))
     );
     let _ = writeln!(x, "<scene version=\"3.0.0\">");
-    let _ = writeln!(x, "    <sensor type=\"perspective\">");
-    let _ = writeln!(x, "        <string name=\"fov_axis\" value=\"y\"/>");
-    let _ = writeln!(x, "        <float name=\"fov\" value=\"{}\"/>", c.fov_y);
-    let _ = writeln!(x, "        <transform name=\"to_world\">");
+    let [fw, fh] = c.resolution.0;
+    match c.lens {
+        Some(desc::LensDesc::Orthographic(o)) => {
+            // Mitsuba's orthographic camera space spans [−1, 1] × [−1/aspect, 1/aspect]; its
+            // to_world's scale sizes the view.
+            let width = o.width.unwrap_or(o.height * fw as f64 / fh as f64);
+            let _ = writeln!(x, "    <sensor type=\"orthographic\">");
+            let _ = writeln!(x, "        <transform name=\"to_world\">");
+            let _ = writeln!(
+                x,
+                "            <scale x=\"{}\" y=\"{}\"/>",
+                0.5 * width,
+                0.5 * o.height * fw as f64 / fh as f64
+            );
+        }
+        lens => {
+            if let Some(desc::LensDesc::Thin(t)) = lens {
+                let _ = writeln!(x, "    <sensor type=\"thinlens\">");
+                let _ = writeln!(
+                    x,
+                    "        <float name=\"aperture_radius\" value=\"{}\"/>",
+                    t.aperture_radius
+                );
+                let _ = writeln!(
+                    x,
+                    "        <float name=\"focus_distance\" value=\"{}\"/>",
+                    t.focus_distance
+                );
+            } else {
+                let _ = writeln!(x, "    <sensor type=\"perspective\">");
+            }
+            let _ = writeln!(x, "        <string name=\"fov_axis\" value=\"y\"/>");
+            let _ = writeln!(x, "        <float name=\"fov\" value=\"{}\"/>", c.fov_y.unwrap_or(45.0));
+            let _ = writeln!(x, "        <transform name=\"to_world\">");
+        }
+    }
     let _ = writeln!(
         x,
         "            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>",
@@ -98,6 +131,17 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         "            <integer name=\"height\" value=\"{}\"/>",
         c.resolution[1]
     );
+    if let Some(crop) = c.crop {
+        let [ox, oy] = crop.offset.map_or([0, 0], |o| o.0);
+        for (name, v) in [
+            ("crop_offset_x", ox),
+            ("crop_offset_y", oy),
+            ("crop_width", crop.size[0]),
+            ("crop_height", crop.size[1]),
+        ] {
+            let _ = writeln!(x, "            <integer name=\"{name}\" value=\"{v}\"/>");
+        }
+    }
     let _ = writeln!(x, "            {}", rfilter_xml(c.filter));
     let _ = writeln!(x, "            <string name=\"pixel_format\" value=\"rgb\"/>");
     let _ = writeln!(x, "        </film>");

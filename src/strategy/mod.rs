@@ -73,6 +73,14 @@ pub trait Strategy: Send + Sync {
         false
     }
 
+    /// Whether the strategy renders a thin-lens or orthographic camera (Mitsuba's `thinlens`
+    /// and `orthographic` sensors): strategies whose eye paths start from
+    /// [`crate::camera::Camera::sample_ray`] do; those whose camera is a vertex of path space
+    /// (a pinhole) refuse such a scene ([`check_scene`]).
+    fn handles_lens_camera(&self) -> bool {
+        false
+    }
+
     /// Whether the strategy renders models with a delta lobe beside a non-delta one (Mitsuba's
     /// smooth `plastic`), i.e. treats each sample's `delta` flag rather than the surface's
     /// class. The others refuse such a scene ([`check_scene`]).
@@ -136,6 +144,18 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
             able(|s| s.handles_mixed_delta()).join(", ")
         );
     }
+    if !scene.camera.is_pinhole() && !strategy.handles_lens_camera() {
+        crate::bail!(
+            "{}: strategy `{}` does not render a {} camera (the scene's sensor) yet; strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            match scene.camera.lens {
+                crate::camera::Lens::Orthographic { .. } => "orthographic",
+                _ => "thin-lens",
+            },
+            able(|s| s.handles_lens_camera()).join(", ")
+        );
+    }
     if scene.environment.is_some() && !strategy.handles_environment() {
         let able = able(|s| s.handles_environment());
         crate::bail!(
@@ -191,7 +211,7 @@ where
     let cam = &scene.camera;
     let mut rng = Rng::for_task(seed, [stream::CAMERA_PATH, pixel as u64, s as u64]);
     let raster = cam.sample_raster(pixel, rng.uniform2());
-    let ray = cam.generate_ray(raster);
+    let ray = cam.sample_ray(raster, &mut rng);
     radiance(&ray, &mut rng)
 }
 

@@ -6,6 +6,7 @@ use photon_bench::film::Film;
 use photon_bench::scene::Scene;
 use photon_bench::strategy;
 
+#[allow(dead_code)] // not every test binary that includes this module compares means
 /// Mean (over 6 seeds) of the image-mean of r + g + b that strategy `kind` with `params`
 /// renders at `spp`, and its standard error; the strategy must accept the scene.
 pub fn image_mean(scene: &Scene, kind: &str, params: &str, spp: u32) -> (f64, f64) {
@@ -25,6 +26,7 @@ pub fn image_mean(scene: &Scene, kind: &str, params: &str, spp: u32) -> (f64, f6
     (m, (var / v.len() as f64).sqrt())
 }
 
+#[allow(dead_code)]
 /// Asserts that an unbiased strategy's mean agrees with the baseline's within 4 standard errors.
 pub fn assert_agrees(kind: &str, (m, se): (f64, f64), (m0, se0): (f64, f64)) {
     let z = (m - m0) / (se * se + se0 * se0).sqrt();

@@ -19,6 +19,13 @@
 //!                                   # tent (radius in (0, 16], default 1) | gaussian (stddev in
 //!                                   # (0, 4], default 0.5; radius 4 stddev): Mitsuba's rfilters,
 //!                                   # sampled by filter importance sampling (src/pixel_filter.rs)
+//! lens = { type = "thin", aperture_radius = 0.1, focus_distance = 5 }   # optional: pinhole
+//!                                   # (default) | thin (Mitsuba's thinlens) | orthographic
+//!                                   # (`height`, optional `width` in scene units: the view's
+//!                                   # extent; fov_y is then not needed)
+//! crop = { offset = [20, 10], size = [40, 30] }  # optional: render only the film's pixels
+//!                                   # [x, x + w) × [y, y + h) (offset default [0, 0]); the
+//!                                   # field of view stays the full film's
 //!
 //! # Materials are named tables; `type` picks the reflectance model.
 //! [materials.white]
@@ -357,12 +364,62 @@ pub struct CameraDesc {
     pub look_at: Triple,
     #[serde(default = "default_up")]
     pub up: Triple,
-    /// Full vertical field of view in degrees, in (0, 180).
-    pub fov_y: f64,
+    /// Full vertical field of view in degrees, in (0, 180); not read by an orthographic lens.
+    pub fov_y: Option<f64>,
     /// `[width, height]` in pixels.
     pub resolution: Fixed<u32, 2>,
     /// The pixel reconstruction filter (default: the box).
     pub filter: Option<FilterDesc>,
+    /// Render only a window of the film (default: all of it).
+    pub crop: Option<CropDesc>,
+    /// How rays leave the camera (default: a pinhole).
+    pub lens: Option<LensDesc>,
+}
+
+/// The camera's lens (Mitsuba's sensors of the same kinds); `type` selects it.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum LensDesc {
+    /// Every ray through `eye` (Mitsuba's `perspective`).
+    Pinhole(PinholeDesc),
+    /// Mitsuba's `thinlens`.
+    Thin(ThinLensDesc),
+    /// Mitsuba's `orthographic`.
+    Orthographic(OrthographicDesc),
+}
+
+/// A pinhole has no parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PinholeDesc {}
+
+/// A thin lens at `eye`: rays leave a uniform point of the disc of `aperture_radius` toward
+/// the plane of focus, `focus_distance` along the view direction (both in scene units, > 0).
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThinLensDesc {
+    pub aperture_radius: f64,
+    pub focus_distance: f64,
+}
+
+/// Parallel rays along the view direction from a `width` × `height` rectangle (scene units)
+/// centred on `eye`; `width` defaults to `height` times the film's aspect ratio.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrthographicDesc {
+    pub height: f64,
+    pub width: Option<f64>,
+}
+
+/// A crop window: the film's pixels [x, x + w) × [y, y + h) (Mitsuba's `crop_offset_x`,
+/// `crop_offset_y`, `crop_width`, `crop_height`); the field of view stays the full film's.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CropDesc {
+    /// `[x, y]`, the window's top-left pixel (default `[0, 0]`).
+    pub offset: Option<Fixed<u32, 2>>,
+    /// `[w, h]` in pixels.
+    pub size: Fixed<u32, 2>,
 }
 
 /// A pixel reconstruction filter (Mitsuba's rfilters of the same names); `type` selects it.

@@ -5,7 +5,7 @@ use super::rough;
 use super::textures::Textures;
 use super::*;
 use crate::bsdf::{Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
-use crate::camera::Camera;
+use crate::camera::{Camera, Lens};
 use crate::error::Result;
 use crate::pixel_filter::{FilterKind, MAX_RADIUS, PixelFilter};
 use crate::resources::{check_memory, film_bytes, memory_limit};
@@ -142,12 +142,16 @@ pub(super) fn camera(ctx: &Ctx, c: &desc::CameraDesc) -> Result<Camera> {
     // killed by the kernel halfway through a run.
     let film = format!("a {w} × {h} film");
     check_memory(&film, film_bytes(w, h), memory_limit()?).map_err(|e| ctx.err("camera.resolution", e))?;
-    if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
-        return Err(ctx.err(
-            "camera.fov_y",
-            format!("expected degrees in (0, 180), got {}", num(c.fov_y)),
-        ));
-    }
+    let orthographic = matches!(c.lens, Some(desc::LensDesc::Orthographic(_)));
+    let fov_y = match c.fov_y {
+        Some(f) if f > 0.0 && f < 180.0 => f,
+        // Unused by an orthographic lens; any valid value keeps the camera's basis well defined.
+        None if orthographic => 90.0,
+        Some(f) => {
+            return Err(ctx.err("camera.fov_y", format!("expected degrees in (0, 180), got {}", num(f))));
+        }
+        None => return Err(ctx.err("camera.fov_y", "missing; expected degrees in (0, 180)")),
+    };
     let eye = ctx.coords("camera.eye", c.eye)?;
     let look_at = ctx.coords("camera.look_at", c.look_at)?;
     let up = ctx.coords("camera.up", c.up)?;
@@ -170,10 +174,58 @@ pub(super) fn camera(ctx: &Ctx, c: &desc::CameraDesc) -> Result<Camera> {
             ),
         ));
     }
-    Ok(
-        Camera::new(eye.as_vec3(), look_at.as_vec3(), up.as_vec3(), c.fov_y as f32, w, h)
-            .with_filter(pixel_filter(ctx, c.filter)?),
-    )
+    let camera = Camera::new(eye.as_vec3(), look_at.as_vec3(), up.as_vec3(), fov_y as f32, w, h)
+        .with_filter(pixel_filter(ctx, c.filter)?)
+        .with_lens(lens(ctx, c.lens, w as f64 / h as f64)?);
+    let Some(crop) = c.crop else {
+        return Ok(camera);
+    };
+    let [x, y] = crop.offset.map_or([0, 0], |o| o.0);
+    let [cw, ch] = crop.size.0;
+    if cw == 0 || ch == 0 {
+        return Err(ctx.err(
+            "camera.crop.size",
+            format!("expected a positive width and height, got [{cw}, {ch}]"),
+        ));
+    }
+    if u64::from(x) + u64::from(cw) > u64::from(w) || u64::from(y) + u64::from(ch) > u64::from(h) {
+        return Err(ctx.err(
+            "camera.crop",
+            format!(
+                "expected a window inside the {w} × {h} film (offset + size ≤ resolution), got offset [{x}, {y}], size [{cw}, {ch}]"
+            ),
+        ));
+    }
+    Ok(camera.with_crop((x, y), (cw, ch)))
+}
+
+/// The camera's lens; `aspect` is the film's width over its height.
+fn lens(ctx: &Ctx, l: Option<desc::LensDesc>, aspect: f64) -> Result<Lens> {
+    let positive = |field: &str, v: f64| -> Result<f32> {
+        if v > 0.0 && v.is_finite() && (v as f32).is_normal() {
+            Ok(v as f32)
+        } else {
+            Err(ctx.err(field, format!("expected a positive length, got {}", num(v))))
+        }
+    };
+    Ok(match l {
+        None | Some(desc::LensDesc::Pinhole(_)) => Lens::Pinhole,
+        Some(desc::LensDesc::Thin(t)) => Lens::Thin {
+            aperture_radius: positive("camera.lens.aperture_radius", t.aperture_radius)?,
+            focus_distance: positive("camera.lens.focus_distance", t.focus_distance)?,
+        },
+        Some(desc::LensDesc::Orthographic(o)) => {
+            let height = positive("camera.lens.height", o.height)?;
+            let width = match o.width {
+                Some(w) => positive("camera.lens.width", w)?,
+                None => height * aspect as f32,
+            };
+            Lens::Orthographic {
+                half_w: 0.5 * width,
+                half_h: 0.5 * height,
+            }
+        }
+    })
 }
 
 /// The camera's pixel filter: a tent's radius in (0, 16], a Gaussian's σ in (0, 4] pixels.

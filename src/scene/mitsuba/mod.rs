@@ -17,8 +17,10 @@
 //! | `<path value>` (top level) | a directory (relative to the file) where relative file names — OBJ files, includes — are looked up first, the latest `<path>` first, before the file's own directory |
 //! | `<bsdf id>` at the top level, `<ref id>` in a shape | a material named by the id |
 //! | `sensor` `perspective`: `fov`, `fov_axis` (x, y, diagonal, smaller, larger; default x), `to_world` | `camera`: `eye`, `look_at`, `up`, `fov_y` |
+//! | `sensor` `thinlens`: as `perspective`, and `aperture_radius` (required), `focus_distance` (default 10⁴, Mitsuba's far clip) | `camera.lens = { type = "thin", … }` |
+//! | `sensor` `orthographic`: `to_world` with a scale in x and y (camera space [−1, 1] × [−1/aspect, 1/aspect]) | `camera.lens = { type = "orthographic", width, height }` |
 //! | `near_clip`, `far_clip`, `sampler`, top-level `integrator` | ignored with a warning (no clipping planes; the experiment picks spp and strategy) |
-//! | `film` `hdrfilm`: `width`, `height` (defaults 768 × 576), `rfilter` | `camera.resolution`; a filter other than `box` is warned about (our film is a box filter); `pixel_format`, `component_format`, `file_format`, `banner`, `sample_border` only change output files and are accepted |
+//! | `film` `hdrfilm`: `width`, `height` (defaults 768 × 576), `rfilter`, `crop_offset_x`, `crop_offset_y`, `crop_width`, `crop_height` | `camera.resolution`, `camera.filter`, `camera.crop`; `pixel_format`, `component_format`, `file_format`, `banner`, `sample_border` only change output files and are accepted |
 //! | `shape` `rectangle` | `quad` with corner (−1, −1, 0), edges 2x and 2y (so [−1, 1]² in the xy plane, front +z), then `to_world` |
 //! | `shape` `cube` | `box` [−1, 1]³, then `to_world` |
 //! | `shape` `sphere`: `center` (default 0), `radius` (default 1), `to_world` | `sphere` with the same fields (Mitsuba applies `to_world` after centre and radius, as we do) |

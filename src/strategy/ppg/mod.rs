@@ -253,7 +253,7 @@ impl Ppg {
                 for i in 0..spp {
                     let mut rng = Rng::for_task(seed, [stream::PPG_TRAIN, p as u64, first_sample + i]);
                     let raster = scene.camera.sample_raster(p, rng.uniform2());
-                    let ray = scene.camera.generate_ray(raster);
+                    let ray = scene.camera.sample_ray(raster, &mut rng);
                     rec.vertices.clear();
                     let l = trace(scene, &walk, &guide, ray, &mut rng, &mut rec);
                     if l.is_finite() {
@@ -328,6 +328,10 @@ impl Strategy for Ppg {
     }
 
     fn handles_environment(&self) -> bool {
+        true
+    }
+
+    fn handles_lens_camera(&self) -> bool {
         true
     }
 

@@ -206,7 +206,7 @@ impl Progressive {
     fn eye_path(&self, camera: &Camera, scene: &Scene, seed: u64, pixel: usize, index: u64) -> EyePath {
         let mut rng = Rng::for_task(seed, [stream::PPM_EYE, pixel as u64, index]);
         let raster = camera.sample_raster(pixel, rng.uniform2());
-        let ray = camera.generate_ray(raster);
+        let ray = camera.sample_ray(raster, &mut rng);
         trace_eye(scene, ray, self.settings.max_depth, self.settings.direct, &mut rng)
     }
 
@@ -422,6 +422,10 @@ macro_rules! progressive_strategy {
             }
 
             fn handles_environment(&self) -> bool {
+                true
+            }
+
+            fn handles_lens_camera(&self) -> bool {
                 true
             }
 
