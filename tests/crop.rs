@@ -5,12 +5,8 @@
 
 mod agreement;
 
-use agreement::assert_refused;
-use photon_bench::film::{Film, Image};
-use photon_bench::scene::Scene;
-use photon_bench::scene::load::load_scene_with_stats;
-use photon_bench::strategy;
-use std::path::Path;
+use agreement::{assert_refused, load_text as load, render_image};
+use photon_bench::film::Image;
 
 const ROOM: &str = r#"[camera]
 eye = [0, 1, 3.4]
@@ -45,21 +41,6 @@ facing = "-y"
 emission = { radiance = [6, 6, 6] }
 "#;
 
-fn load(dir: &Path, name: &str, text: &str) -> photon_bench::error::Result<Scene> {
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    load_scene_with_stats(&path).map(|(s, _)| s)
-}
-
-fn render(scene: &Scene, kind: &str, spp: u32, seed: u64) -> Image {
-    let mut s = strategy::build(kind, toml::from_str("max_depth = 4").unwrap()).unwrap();
-    strategy::check_scene(&*s, scene).unwrap();
-    s.prepare(scene, seed).unwrap();
-    let mut film = Film::new(scene.camera.width, scene.camera.height);
-    s.render_pass(scene, seed, 0..spp, &mut film);
-    film.image()
-}
-
 /// Per 3 × 3 block of the window, the cropped render's mean and the full render's agree within
 /// 4 standard errors (over 4 seeds each), for `path` and for `light`, whose splats must land in
 /// the window's own pixels.
@@ -91,8 +72,12 @@ fn a_cropped_render_is_the_full_render_inside_the_window() {
             let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
             (m, var / v.len() as f64)
         };
-        let fulls: Vec<Image> = (0..seeds).map(|s| render(&full, kind, spp, s)).collect();
-        let crops: Vec<Image> = (0..seeds).map(|s| render(&crop, kind, spp, 100 + s)).collect();
+        let fulls: Vec<Image> = (0..seeds)
+            .map(|s| render_image(&full, kind, "max_depth = 4", spp, s))
+            .collect();
+        let crops: Vec<Image> = (0..seeds)
+            .map(|s| render_image(&crop, kind, "max_depth = 4", spp, 100 + s))
+            .collect();
         let lit = (0..3)
             .flat_map(|by| (0..4).map(move |bx| (bx, by)))
             .filter(|&(bx, by)| stats(&fulls, 9, 3, bx, by).0 > 0.05);

@@ -6,21 +6,12 @@
 
 mod agreement;
 
-use agreement::{assert_agrees, assert_refused, image_mean};
+use agreement::{assert_agrees, assert_refused, image_mean, load_text as load, render_image as render};
 use glam::{Vec2, Vec3};
-use photon_bench::film::{Film, Image};
 use photon_bench::light::delta::DeltaLight;
 use photon_bench::scene::Scene;
-use photon_bench::scene::load::load_scene_with_stats;
 use photon_bench::strategy::{self, Strategy};
 use std::f32::consts::FRAC_1_PI;
-use std::path::Path;
-
-fn load(dir: &Path, name: &str, text: &str) -> photon_bench::error::Result<Scene> {
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    load_scene_with_stats(&path).map(|(s, _)| s)
-}
 
 /// A grey floor (ρ = 0.5) seen from straight above, lit by `light` alone.
 fn floor_under(light: &str) -> String {
@@ -47,15 +38,6 @@ facing = "+y"
 {light}
 "#
     )
-}
-
-fn render(scene: &Scene, kind: &str, params: &str, spp: u32, seed: u64) -> Image {
-    let mut s = strategy::build(kind, toml::from_str(params).unwrap()).unwrap();
-    strategy::check_scene(&*s, scene).unwrap();
-    s.prepare(scene, seed).unwrap();
-    let mut film = Film::new(scene.camera.width, scene.camera.height);
-    s.render_pass(scene, seed, 0..spp, &mut film);
-    film.image()
 }
 
 /// The floor point each pixel centre sees.

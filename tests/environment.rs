@@ -4,7 +4,7 @@
 
 mod agreement;
 
-use agreement::{assert_agrees, assert_refused, image_mean};
+use agreement::{assert_agrees, assert_refused, image_mean, load_text, render_image};
 use glam::Vec3;
 use photon_bench::film::{Film, Image, write_exr};
 use photon_bench::scene::Scene;
@@ -35,21 +35,6 @@ radius = 1
     )
 }
 
-fn load(dir: &Path, text: &str) -> photon_bench::error::Result<Scene> {
-    let path = dir.join("env.toml");
-    std::fs::write(&path, text).unwrap();
-    load_scene_with_stats(&path).map(|(s, _)| s)
-}
-
-fn render(scene: &Scene, params: &str, spp: u32, seed: u64) -> Image {
-    let mut s = strategy::build("path", toml::from_str(params).unwrap()).unwrap();
-    strategy::check_scene(&*s, scene).unwrap();
-    s.prepare(scene, seed).unwrap();
-    let mut film = Film::new(scene.camera.width, scene.camera.height);
-    s.render_pass(scene, seed, 0..spp, &mut film);
-    film.image()
-}
-
 /// A convex diffuse sphere of albedo ρ under a constant sky L sees the sky over its whole
 /// hemisphere and nothing else: it reflects exactly ρ L everywhere, and the sky behind it is L.
 /// BSDF sampling gives it in every sample (cosine sampling of a Lambertian toward a constant
@@ -59,13 +44,20 @@ fn render(scene: &Scene, params: &str, spp: u32, seed: u64) -> Image {
 #[test]
 fn a_diffuse_sphere_under_a_constant_sky_reflects_albedo_times_sky() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = load(
+    let scene = load_text(
         dir.path(),
+        "env.toml",
         &scene_toml("[environment]\ntype = \"constant\"\nradiance = [1, 2, 3]"),
     )
     .unwrap();
     for direct in ["mis", "nee", "bsdf"] {
-        let img = render(&scene, &format!("direct = \"{direct}\"\nmax_depth = 4"), 4096, 3);
+        let img = render_image(
+            &scene,
+            "path",
+            &format!("direct = \"{direct}\"\nmax_depth = 4"),
+            4096,
+            3,
+        );
         let corner = img.get(0, 0);
         assert_eq!(corner, Vec3::new(1.0, 2.0, 3.0), "{direct}: the sky seen directly");
         // The central 4 × 4 pixels see the sphere's front.
@@ -92,8 +84,9 @@ fn a_diffuse_sphere_under_a_constant_sky_reflects_albedo_times_sky() {
 #[test]
 fn path_space_strategies_under_a_constant_sky_reproduce_albedo_times_sky() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = load(
+    let scene = load_text(
         dir.path(),
+        "env.toml",
         &scene_toml("[environment]\ntype = \"constant\"\nradiance = [1, 2, 3]"),
     )
     .unwrap();
@@ -169,11 +162,17 @@ fn nee_bsdf_sampling_and_mis_agree_under_an_environment_map() {
     write_sky(&dir.path().join("sky.exr"));
     let env =
         "[environment]\ntype = \"envmap\"\nfile = \"sky.exr\"\nscale = 2\ntransform = { rotate_y = 30, rotate_x = 10 }";
-    let scene = load(dir.path(), &scene_toml(env)).unwrap();
+    let scene = load_text(dir.path(), "env.toml", &scene_toml(env)).unwrap();
     let estimate = |direct: &str| {
         let means: Vec<f64> = (0..8)
             .map(|seed| {
-                let img = render(&scene, &format!("direct = \"{direct}\"\nmax_depth = 3"), 16, seed);
+                let img = render_image(
+                    &scene,
+                    "path",
+                    &format!("direct = \"{direct}\"\nmax_depth = 3"),
+                    16,
+                    seed,
+                );
                 img.pixels.iter().map(|p| f64::from(p.x + p.y + p.z)).sum::<f64>() / img.pixels.len() as f64
             })
             .collect();
@@ -202,8 +201,9 @@ fn nee_bsdf_sampling_and_mis_agree_under_an_environment_map() {
 #[test]
 fn strategies_without_environment_light_refuse_the_scene() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = load(
+    let scene = load_text(
         dir.path(),
+        "env.toml",
         &scene_toml("[environment]\ntype = \"constant\"\nradiance = [1, 1, 1]"),
     )
     .unwrap();
@@ -239,7 +239,10 @@ fn bad_environments_are_refused_naming_the_field() {
     )
     .unwrap();
     let refused = |env: &str, expect: &[&str]| {
-        let err = load(dir.path(), &scene_toml(env)).err().expect("refused").to_string();
+        let err = load_text(dir.path(), "env.toml", &scene_toml(env))
+            .err()
+            .expect("refused")
+            .to_string();
         assert_refused(&err, expect);
     };
     refused(
@@ -352,8 +355,9 @@ facing = "+y"
 {env}"#
         )
     };
-    let scene = load(
+    let scene = load_text(
         dir.path(),
+        "env.toml",
         &text("[environment]\ntype = \"constant\"\nradiance = [1, 2, 3]"),
     )
     .unwrap();
@@ -376,8 +380,9 @@ facing = "+y"
     assert!(rel < 0.01, "constant sky: {got} vs {expected}");
 
     write_sky(&dir.path().join("sky.exr"));
-    let scene = load(
+    let scene = load_text(
         dir.path(),
+        "env.toml",
         &text("[environment]\ntype = \"envmap\"\nfile = \"sky.exr\""),
     )
     .unwrap();
@@ -429,7 +434,7 @@ radius = 0.6
 type = "envmap"
 file = "sky.exr"
 "#;
-    let scene = load(dir.path(), text).unwrap();
+    let scene = load_text(dir.path(), "env.toml", text).unwrap();
     let path = image_mean(&scene, "path", "max_depth = 4", 256);
     for (kind, params, spp) in [
         ("photon_guided", "max_depth = 4", 64),

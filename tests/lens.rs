@@ -6,13 +6,10 @@
 
 mod agreement;
 
-use agreement::assert_refused;
+use agreement::{assert_refused, load_text as load, render_image};
 use photon_bench::camera::Lens;
-use photon_bench::film::{Film, Image};
-use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_with_stats;
 use photon_bench::strategy;
-use std::path::Path;
 
 /// A 1 × 1.5 emitting quad facing the camera 3 units away, in front of a grey wall.
 fn scene(lens: &str) -> String {
@@ -48,21 +45,6 @@ facing = "+z"
     )
 }
 
-fn load(dir: &Path, name: &str, text: &str) -> photon_bench::error::Result<Scene> {
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    load_scene_with_stats(&path).map(|(s, _)| s)
-}
-
-fn render(scene: &Scene, kind: &str, spp: u32, seed: u64) -> Image {
-    let mut s = strategy::build(kind, toml::from_str("max_depth = 0").unwrap()).unwrap();
-    strategy::check_scene(&*s, scene).unwrap();
-    s.prepare(scene, seed).unwrap();
-    let mut film = Film::new(scene.camera.width, scene.camera.height);
-    s.render_pass(scene, seed, 0..spp, &mut film);
-    film.image()
-}
-
 /// Parallel projection keeps sizes: with direct light only (the wall is unlit), the image's sum
 /// is Le times the quad's area over a pixel's (4 × 3 units over 40 × 30 pixels: 0.01), wherever
 /// the quad sits in the view — exact up to the edge pixels' jitter.
@@ -82,7 +64,7 @@ fn an_orthographic_image_of_an_emitter_holds_its_area() {
             half_h: 1.5
         }
     );
-    let img = render(&s, "path", 256, 1);
+    let img = render_image(&s, "path", "max_depth = 0", 256, 1);
     let sum: f64 = img.pixels.iter().map(|p| f64::from(p.x)).sum();
     let expected = 2.0 * 1.5 / 0.01;
     assert!((sum / expected - 1.0).abs() < 0.003, "{sum} vs {expected}");
@@ -114,7 +96,10 @@ fn a_thin_lens_focused_on_an_emitter_renders_it_as_the_pinhole() {
         let p = r.o + r.d * ((r.o.z - 0.0) / -r.d.z);
         assert!((p - at_focus).length() < 1e-4, "{p} vs {at_focus}");
     }
-    let (a, b) = (render(&pinhole, "path", 16, 3), render(&thin, "path", 16, 3));
+    let (a, b) = (
+        render_image(&pinhole, "path", "max_depth = 0", 16, 3),
+        render_image(&thin, "path", "max_depth = 0", 16, 3),
+    );
     let differ = a
         .pixels
         .iter()
@@ -129,7 +114,7 @@ fn a_thin_lens_focused_on_an_emitter_renders_it_as_the_pinhole() {
         &scene("lens = { type = \"thin\", aperture_radius = 0.2, focus_distance = 1 }"),
     )
     .unwrap();
-    let c = render(&blurred, "path", 16, 3);
+    let c = render_image(&blurred, "path", "max_depth = 0", 16, 3);
     let differ = a
         .pixels
         .iter()

@@ -1,10 +1,33 @@
 //! Helpers the feature tests share (`tests/environment.rs`, `tests/plastic.rs`,
-//! `tests/delta_lights.rs`): comparing strategies by their image means, and checking that bad
-//! input is refused with one line.
+//! `tests/delta_lights.rs`, `tests/crop.rs`, `tests/lens.rs`, …): loading a scene written by
+//! the test, rendering one image, comparing strategies by their image means, and checking that
+//! bad input is refused with one line.
 
-use photon_bench::film::Film;
+use photon_bench::film::{Film, Image};
 use photon_bench::scene::Scene;
+use photon_bench::scene::load::load_scene_with_stats;
 use photon_bench::strategy;
+use std::path::Path;
+
+#[allow(dead_code)]
+/// Writes scene `text` to `dir/name` (the extension says TOML or Mitsuba XML) and loads it.
+pub fn load_text(dir: &Path, name: &str, text: &str) -> photon_bench::error::Result<Scene> {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    load_scene_with_stats(&path).map(|(s, _)| s)
+}
+
+#[allow(dead_code)]
+/// One image of `scene` by strategy `kind` with TOML `params`: `spp` samples per pixel under
+/// `seed`; the strategy must accept the scene.
+pub fn render_image(scene: &Scene, kind: &str, params: &str, spp: u32, seed: u64) -> Image {
+    let mut s = strategy::build(kind, toml::from_str(params).unwrap()).unwrap();
+    strategy::check_scene(&*s, scene).unwrap();
+    s.prepare(scene, seed).unwrap();
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    s.render_pass(scene, seed, 0..spp, &mut film);
+    film.image()
+}
 
 #[allow(dead_code)] // not every test binary that includes this module compares means
 /// Mean (over 6 seeds) of the image-mean of r + g + b that strategy `kind` with `params`
@@ -12,12 +35,7 @@ use photon_bench::strategy;
 pub fn image_mean(scene: &Scene, kind: &str, params: &str, spp: u32) -> (f64, f64) {
     let v: Vec<f64> = (0..6u64)
         .map(|seed| {
-            let mut s = strategy::build(kind, toml::from_str(params).unwrap()).unwrap();
-            strategy::check_scene(&*s, scene).unwrap();
-            s.prepare(scene, seed).unwrap();
-            let mut film = Film::new(scene.camera.width, scene.camera.height);
-            s.render_pass(scene, seed, 0..spp, &mut film);
-            let img = film.image();
+            let img = render_image(scene, kind, params, spp, seed);
             img.pixels.iter().map(|p| f64::from(p.x + p.y + p.z)).sum::<f64>() / img.pixels.len() as f64
         })
         .collect();
