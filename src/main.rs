@@ -85,7 +85,7 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// Render one image of a scene with any strategy: an EXR and its provenance (.json).
+    /// Render one image of a scene with any strategy: an EXR, a PNG preview and its provenance (.json).
     Render {
         /// The scene file, e.g. scenes/veach-mis.xml.
         scene: PathBuf,
@@ -104,7 +104,7 @@ enum Command {
         spp: u32,
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// The EXR to write (its provenance goes beside it, .json).
+        /// The EXR to write (a PNG preview and its provenance, .json, go beside it).
         #[arg(long)]
         out: PathBuf,
         /// Replace an existing image.

@@ -327,6 +327,8 @@ fn render_writes_one_image_by_any_strategy_with_its_provenance() {
     let read = |name: &str| photon_bench::film::read_exr(&root.join("out").join(name)).unwrap();
     assert_eq!(read("one.exr").pixels, read("two.exr").pixels, "1 and 2 threads");
     assert!(read("one.exr").pixels.iter().any(|p| p.max_element() > 0.0));
+    let png = image::open(root.join("out/one.png")).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (read("one.exr").width, read("one.exr").height));
     let info: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(root.join("out/one.json")).unwrap()).unwrap();
     assert_eq!(info["strategy"], "bdpt");

@@ -62,7 +62,8 @@ pub fn prepare(scene: &Scene, kind: &str, params: toml::Table, seed: u64) -> Res
 }
 
 /// Renders `spp` samples of every pixel with `strategy` (prepared for `seed`) and writes the
-/// EXR to `out` and its provenance beside it (`.json`), both atomically. `on_pass` is called
+/// EXR to `out`, an sRGB preview (`.png`) and its provenance (`.json`) beside it, each
+/// atomically. `on_pass` is called
 /// after each pass with the samples done so far.
 pub fn render(
     scene: &Scene,
@@ -102,6 +103,7 @@ pub fn render(
     };
     let json = serde_json::to_string_pretty(&info).map_err(|e| Error::new(e.to_string()))?;
     write_exr(&image, out)?;
+    crate::film::write_png(&image, &out.with_extension("png"), 0.0)?;
     crate::util::write_atomic(&out.with_extension("json"), json.as_bytes())?;
     Ok(out.to_path_buf())
 }
