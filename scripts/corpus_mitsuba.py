@@ -65,21 +65,20 @@ def resize_films(text, longest, rfilter="keep"):
         block = re.sub(r'(<integer\s+name="width"\s+value=")\d+(")', rf"\g<1>{nw}\2", block)
         block = re.sub(r'(<integer\s+name="height"\s+value=")\d+(")', rf"\g<1>{nh}\2", block)
         tag_end = block.index(">") + 1
-        # A crop window shrinks with its film (and stays on it).
-        for key, side in (("crop_offset_x", nw), ("crop_offset_y", nh), ("crop_width", nw), ("crop_height", nh)):
-            m_crop = re.search(r'(<integer\s+name="' + key + r'"\s+value=")(\d+)(")', block)
-            if m_crop:
-                v = round(int(m_crop.group(2)) * scale)
-                v = max(1, min(v, side)) if key.startswith("crop_w") or key.startswith("crop_h") else min(v, side - 1)
-                block = block[: m_crop.start()] + f"{m_crop.group(1)}{v}{m_crop.group(3)}" + block[m_crop.end():]
-        ox = re.search(r'name="crop_offset_x"\s+value="(\d+)"', block)
-        cw = re.search(r'name="crop_width"\s+value="(\d+)"', block)
-        if ox and cw and int(ox.group(1)) + int(cw.group(1)) > nw:
-            block = block.replace(cw.group(0), f'name="crop_width" value="{nw - int(ox.group(1))}"')
-        oy = re.search(r'name="crop_offset_y"\s+value="(\d+)"', block)
-        ch = re.search(r'name="crop_height"\s+value="(\d+)"', block)
-        if oy and ch and int(oy.group(1)) + int(ch.group(1)) > nh:
-            block = block.replace(ch.group(0), f'name="crop_height" value="{nh - int(oy.group(1))}"')
+        # A crop window shrinks with its film and stays on it: each given offset is scaled and
+        # kept inside the film, each given size scaled and kept between 1 and what is left.
+        for axis, side in (("x", nw), ("y", nh)):
+            size_key = "crop_width" if axis == "x" else "crop_height"
+            pattern = lambda key: r'(<integer\s+name="' + key + r'"\s+value=")(\d+)(")'  # noqa: E731
+            offset = 0
+            m_off = re.search(pattern(f"crop_offset_{axis}"), block)
+            if m_off:
+                offset = min(round(int(m_off.group(2)) * scale), side - 1)
+                block = re.sub(pattern(f"crop_offset_{axis}"), rf"\g<1>{offset}\3", block, count=1)
+            m_size = re.search(pattern(size_key), block)
+            if m_size:
+                size = max(1, min(round(int(m_size.group(2)) * scale), side - offset))
+                block = re.sub(pattern(size_key), rf"\g<1>{size}\3", block, count=1)
         if not w:
             block = block[:tag_end] + f'<integer name="width" value="{nw}"/>' + block[tag_end:]
         if not h:

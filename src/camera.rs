@@ -144,7 +144,7 @@ impl Camera {
     /// one of the pixels whose filter covers it, drawn from `rng`
     /// ([`PixelFilter::splat_one`]); the box filter's own pixel, weight 1, without a draw.
     #[inline]
-    pub fn splat(&self, raster: Vec2, rng: &mut crate::sampling::Rng) -> Option<(u32, f32)> {
+    pub fn splat(&self, raster: Vec2, rng: &mut Rng) -> Option<(u32, f32)> {
         let u = match self.filter {
             PixelFilter::Box => 0.0,
             PixelFilter::Separable(_) => rng.uniform(),

@@ -6,7 +6,7 @@ mod agreement;
 
 use agreement::{assert_agrees, assert_refused, image_mean, load_text, render_image};
 use glam::Vec3;
-use photon_bench::film::{Film, Image, write_exr};
+use photon_bench::film::{Image, write_exr};
 use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_with_stats;
 use photon_bench::strategy::{self, Strategy};
@@ -97,14 +97,7 @@ fn path_space_strategies_under_a_constant_sky_reproduce_albedo_times_sky() {
     // estimate their own spread.
     for (kind, spp, slack) in [("light", 1024, 0.0), ("bdpt", 64, 0.0), ("vcm", 64, 0.01)] {
         let images: Vec<Image> = (0..6)
-            .map(|seed| {
-                let mut s = strategy::build(kind, toml::from_str("max_depth = 4").unwrap()).unwrap();
-                strategy::check_scene(&*s, &scene).unwrap();
-                s.prepare(&scene, seed).unwrap();
-                let mut film = Film::new(scene.camera.width, scene.camera.height);
-                s.render_pass(&scene, seed, 0..spp, &mut film);
-                film.image()
-            })
+            .map(|seed| render_image(&scene, kind, "max_depth = 4", spp, seed))
             .collect();
         for (region, pixels, expected) in [("sphere", &centre, 0.5 * 6.0), ("sky", &corners, 6.0)] {
             let per_seed: Vec<f64> = images

@@ -246,10 +246,9 @@ pub fn direction(a: &Vertex, b: &Vertex) -> (Vec3, f32) {
 /// light infinitely far away (module doc).
 #[inline]
 pub fn cos_at(v: &Vertex, d: Vec3) -> f32 {
-    if v.is_surface() || v.kind == VertexKind::Eye || matches!(v.kind, VertexKind::Light(_)) {
-        v.ng.dot(d).abs()
-    } else {
-        1.0
+    match v.kind {
+        VertexKind::DeltaLight(_) | VertexKind::Environment | VertexKind::Directional(_) => 1.0,
+        VertexKind::Light(_) | VertexKind::Surface | VertexKind::Eye => v.ng.dot(d).abs(),
     }
 }
 
