@@ -4,8 +4,10 @@
 //! What does not: shading, sampling decisions, scene loading.
 
 pub mod accel;
+pub mod primitive;
 
-pub use accel::{Accel, Hit, Primitive};
+pub use accel::Accel;
+pub use primitive::{Hit, Primitive};
 
 use glam::Vec3;
 
