@@ -1072,3 +1072,43 @@ fn default_b_eye_pool_starts_chains_on_distinct_paths() {
         "default pool: {shared_default} of the chains share their first path (12 per chain: {shared_small})"
     );
 }
+
+/// Path-tracing samples in path space (B_eye and the chains' first states) keep the eye walk's
+/// factors as it grows; every path they emit carries exactly the MIS-weighted f / p that
+/// re-evaluating the whole path gives: f(X) from its vertices, the power heuristic over the
+/// hit and next-event densities, each the product of every vertex's density [Veach 1997,
+/// eq. (9.13)]. Paths through the mirror and glass spheres of cornell-spheres (specular
+/// vertices), up to 17 edges.
+#[test]
+fn path_tracing_samples_carry_the_weight_of_their_whole_path() {
+    use photon_bench::path_space::{contribution, pdf_eye_side, pdf_light_side};
+    let scene = scene();
+    let (mut checked, mut longest) = (0, 0);
+    for i in 0..4000u64 {
+        let mut rng = Rng::for_task(9, [i, 0, 0]);
+        photon_bench::path_space::walk::path_tracing_sample(&scene, 17, &mut rng, &mut |path, c| {
+            let k = path.len() - 1;
+            let (f, _) = contribution(&scene, path).expect("an emitted path has a contribution");
+            let eye: f64 = (1..k).map(|i| pdf_eye_side(&scene, path, i) as f64).product();
+            let p_hit = eye * pdf_eye_side(&scene, path, 0) as f64;
+            let p_nee = if k >= 2 && path[1].connectible() {
+                eye * pdf_light_side(&scene, path, 0) as f64
+            } else {
+                0.0
+            };
+            // Which technique made it: the weight only matches one of them.
+            let expected = [(p_hit, p_nee), (p_nee, p_hit)].map(|(p, o)| f.as_dvec3() * (p / (p * p + o * o)));
+            let close = |e: DVec3| (e - c.as_dvec3()).abs().max_element() <= 1e-4 * e.abs().max_element().max(1e-30);
+            assert!(
+                expected.iter().any(|&e| close(e)),
+                "sample {i}, {k} edges: emitted {c:?}, whole-path evaluation {expected:?}"
+            );
+            checked += 1;
+            longest = longest.max(k);
+        });
+    }
+    assert!(
+        checked > 4000 && longest >= 10,
+        "{checked} paths, longest {longest} edges"
+    );
+}

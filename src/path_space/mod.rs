@@ -311,10 +311,15 @@ pub fn delta_lobe(bsdf: &Bsdf, wo: Vec3, wi: Vec3, mode: TransportMode) -> Optio
 
 /// f_s(x_{i−1} → x_i → x_{i+1}) at surface vertex i (radiance flows from i−1 to i+1).
 pub fn scattering(scene: &Scene, path: &[Vertex], i: usize) -> Vec3 {
-    let v = &path[i];
+    scattering_at(scene, &path[i], &path[i + 1], &path[i - 1])
+}
+
+/// f_s at surface vertex `v` for radiance arriving from `light_side` and leaving toward
+/// `eye_side` ([`scattering`] of the vertex between them).
+pub fn scattering_at(scene: &Scene, v: &Vertex, eye_side: &Vertex, light_side: &Vertex) -> Vec3 {
     let (Some(wo), Some(wi)) = (
-        local_dir(v, direction(v, &path[i + 1]).0),
-        local_dir(v, direction(v, &path[i - 1]).0),
+        local_dir(v, direction(v, eye_side).0),
+        local_dir(v, direction(v, light_side).0),
     ) else {
         return Vec3::ZERO;
     };
@@ -455,24 +460,26 @@ pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
 /// x_{i+1}.
 pub fn pdf_eye_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
     let k = path.len() - 1;
-    if !path[i].is_surface() && !path[i].is_hittable_light() {
+    pdf_eye_step(scene, &path[i], &path[i + 1], (i + 1 < k).then(|| &path[i + 2]))
+}
+
+/// [`pdf_eye_side`] of vertex `x` generated from `v`, itself reached from `before`; `before` is
+/// `None` when `v` is the eye (x is then the first vertex the camera sees).
+pub fn pdf_eye_step(scene: &Scene, x: &Vertex, v: &Vertex, before: Option<&Vertex>) -> f32 {
+    if !x.is_surface() && !x.is_hittable_light() {
         return 0.0;
     }
-    if i + 1 == k {
+    let Some(before) = before else {
         let pixels = scene.camera.pixel_count() as f32;
-        return camera_factor(scene, &path[i]).map_or(0.0, |(_, c)| c / pixels);
-    }
-    let v = &path[i + 1];
+        return camera_factor(scene, x).map_or(0.0, |(_, c)| c / pixels);
+    };
     if !v.is_surface() {
         return 0.0;
     }
-    let (Some(wo), Some(wi)) = (
-        local_dir(v, direction(v, &path[i + 2]).0),
-        local_dir(v, direction(v, &path[i]).0),
-    ) else {
+    let (Some(wo), Some(wi)) = (local_dir(v, direction(v, before).0), local_dir(v, direction(v, x).0)) else {
         return 0.0;
     };
-    direction_pdf(scene, v, wo, wi, TransportMode::Radiance) * solid_angle_to_area(v, &path[i])
+    direction_pdf(scene, v, wo, wi, TransportMode::Radiance) * solid_angle_to_area(v, x)
 }
 
 /// Solid-angle density (or lobe probability at a specular vertex) of sampling `wi` from `wo`.

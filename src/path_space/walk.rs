@@ -3,7 +3,10 @@
 //! the density that [`pdf_light_side`] / [`pdf_eye_side`] report, and path-tracing samples of
 //! whole paths for the normalisation B and the chains' first states.
 
-use super::{Vertex, VertexKind, camera_factor, contribution, direction, pdf_eye_side, pdf_light_side, visible};
+use super::{
+    Vertex, VertexKind, camera_factor, contribution, direction, emitted, geometry, pdf_eye_side, pdf_eye_step,
+    pdf_light_side, scattering, scattering_at, visible,
+};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, spawn_ray};
 use crate::light::parallel_ray_origin;
@@ -171,36 +174,66 @@ pub fn join(light: &[Vertex], rev: &[Vertex]) -> Vec<Vertex> {
 /// each path with c = w f / p, so that E[Σ c] = ∫ f dμ = B (per channel).
 pub fn path_tracing_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit: &mut impl FnMut(&[Vertex], Vec3)) {
     let mut rev = vec![Vertex::eye(scene)];
+    // The eye walk's own factors, kept as it grows so that each path it emits costs O(1) model
+    // evaluations instead of re-evaluating the whole path (O(k²) per sample). With z = rev[m−1]
+    // its last vertex, a path X = (x₀, z, rev[m−2], …, eye) of k = m edges has
+    //   f(X) = Le(x₀→z) G(x₀, z) f_s(z) · eye_f,   eye_f = C(rev[1]) Π_{j=1}^{m−2} f_s(rev[j]) G(rev[j+1], rev[j]),
+    // and every density of its eye-side vertices is Π_{j=1}^{m−1} p_eye(rev[j]) = eye_p.
+    let mut eye_f = Vec3::ZERO;
+    let mut eye_p = 1.0f64;
+    let mut path = Vec::with_capacity(max_edges + 2);
     while rev.len() <= max_edges {
         let Some(z) = step_eye(scene, &rev, rng) else { return };
         rev.push(z);
-        // `rev` has `rev.len() - 1` surface vertices: a path ending at the light z has that
-        // many edges, a connection from z one more.
-        if let Some(x0) = z.as_light(scene) {
-            weigh(scene, &join(&[x0], &rev[..rev.len() - 1]), false, emit);
+        let m = rev.len();
+        let (eye_f_before, eye_p_before) = (eye_f, eye_p);
+        if m == 2 {
+            let Some((_, c)) = camera_factor(scene, &rev[1]) else {
+                return;
+            };
+            eye_f = Vec3::splat(c);
+        } else {
+            eye_f *= scattering_at(scene, &rev[m - 2], &rev[m - 3], &rev[m - 1]) * geometry(&rev[m - 1], &rev[m - 2]);
         }
+        eye_p *= pdf_eye_step(scene, &rev[m - 1], &rev[m - 2], m.checked_sub(3).map(|j| &rev[j])) as f64;
+        // The eye walk hits a light: the path of its first m − 1 edges, x₀ = z.
+        if let Some(x0) = z.as_light(scene) {
+            fill_path(&mut path, x0, &rev[..m - 1]);
+            let f = if m == 2 {
+                contribution(scene, &path).map_or(Vec3::ZERO, |(f, _)| f)
+            } else {
+                emitted(scene, &path) * geometry(&path[0], &path[1]) * scattering(scene, &path, 1) * eye_f_before
+            };
+            weigh(scene, &path, f, eye_p_before, false, emit);
+        }
+        // Next-event estimation from z: the path of m edges, x₀ = y on a light.
         if !z.delta
-            && rev.len() <= max_edges
+            && m <= max_edges
             && let Some(y) = sample_light_vertex(scene, rng)
             && visible(scene, &y, &z)
         {
-            let path = join(&[y], &rev);
-            weigh(scene, &path, true, emit);
+            fill_path(&mut path, y, &rev);
+            let f = emitted(scene, &path) * geometry(&path[0], &path[1]) * scattering(scene, &path, 1) * eye_f;
+            weigh(scene, &path, f, eye_p, true, emit);
         }
     }
 }
 
-/// Emits a path-tracing path with its MIS weight: `nee` says x₀ came from light sampling
-/// (else the eye walk hit it).
-fn weigh(scene: &Scene, path: &[Vertex], nee: bool, emit: &mut impl FnMut(&[Vertex], Vec3)) {
-    let Some((f, _)) = contribution(scene, path) else {
-        return;
-    };
-    if f == Vec3::ZERO {
+/// `path` ← x₀ followed by the eye sub-path `rev` reversed ([`join`] into a reused buffer).
+fn fill_path(path: &mut Vec<Vertex>, x0: Vertex, rev: &[Vertex]) {
+    path.clear();
+    path.push(x0);
+    path.extend(rev.iter().rev());
+}
+
+/// Emits a path-tracing path of contribution `f` with its MIS weight: `nee` says x₀ came from
+/// light sampling (else the eye walk hit it); `eye_part` is the density of its eye-side vertices
+/// x₁ … x_{k−1}, which both techniques share.
+fn weigh(scene: &Scene, path: &[Vertex], f: Vec3, eye_part: f64, nee: bool, emit: &mut impl FnMut(&[Vertex], Vec3)) {
+    if f == Vec3::ZERO || !f.is_finite() {
         return;
     }
     let k = path.len() - 1;
-    let eye_part: f64 = (1..k).map(|i| pdf_eye_side(scene, path, i) as f64).product();
     let p_hit = eye_part * pdf_eye_side(scene, path, 0) as f64;
     let p_nee = if k >= 2 && path[1].connectible() {
         eye_part * pdf_light_side(scene, path, 0) as f64
