@@ -174,6 +174,20 @@ pub mod flags {
 }
 
 const NORMAL_BITS: u32 = 6;
+
+/// Every direction and normal code decoded once (768 kB and 48 kB, built on first use):
+/// [`Photon::direction`] and [`Photon::normal`] are read for every candidate of every density
+/// estimate, irradiance lookup and guiding grid, and a table read costs a fraction of
+/// [`oct_decode`]'s two divisions and normalisation (issue 21: Jensen's grid builds 1.19×,
+/// precomputed final gathers 1.08×). Immutable, and the same values bit for bit: a memo of a
+/// pure function, not state.
+static DIRECTIONS: std::sync::LazyLock<Vec<Vec3>> =
+    std::sync::LazyLock::new(|| (0..1u32 << 16).map(|c| oct_decode(c, 8)).collect());
+static NORMALS: std::sync::LazyLock<Vec<Vec3>> = std::sync::LazyLock::new(|| {
+    (0..1u32 << (2 * NORMAL_BITS))
+        .map(|c| oct_decode(c, NORMAL_BITS))
+        .collect()
+});
 const NORMAL_MASK: u16 = (1 << (2 * NORMAL_BITS)) - 1;
 const FLAG_SHIFT: u32 = 2 * NORMAL_BITS;
 
@@ -221,13 +235,13 @@ impl Photon {
     /// Unit direction the photon came from (pointing away from the surface).
     #[inline]
     pub fn direction(&self) -> Vec3 {
-        oct_decode(self.direction as u32, 8)
+        DIRECTIONS[self.direction as usize]
     }
 
     /// Unit surface normal on the side the photon arrived from.
     #[inline]
     pub fn normal(&self) -> Vec3 {
-        oct_decode((self.normal_flags & NORMAL_MASK) as u32, NORMAL_BITS)
+        NORMALS[(self.normal_flags & NORMAL_MASK) as usize]
     }
 
     #[inline]
