@@ -439,20 +439,20 @@ pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
             };
             pdf_w * solid_angle_to_area(&path[0], &path[1])
         }
-        _ => {
-            let v = &path[i - 1];
-            if !v.is_surface() {
-                return 0.0;
-            }
-            let (Some(wo), Some(wi)) = (
-                local_dir(v, direction(v, &path[i - 2]).0),
-                local_dir(v, direction(v, &path[i]).0),
-            ) else {
-                return 0.0;
-            };
-            direction_pdf(scene, v, wo, wi, TransportMode::Importance) * solid_angle_to_area(v, &path[i])
-        }
+        _ => pdf_light_step(scene, &path[i], &path[i - 1], &path[i - 2]),
     }
+}
+
+/// [`pdf_light_side`] of vertex `x` (index ≥ 2) generated from surface vertex `v`, itself
+/// reached from `before`: the BSDF's density at `v` in importance transport, as an area density.
+pub fn pdf_light_step(scene: &Scene, x: &Vertex, v: &Vertex, before: &Vertex) -> f32 {
+    if !v.is_surface() {
+        return 0.0;
+    }
+    let (Some(wo), Some(wi)) = (local_dir(v, direction(v, before).0), local_dir(v, direction(v, x).0)) else {
+        return 0.0;
+    };
+    direction_pdf(scene, v, wo, wi, TransportMode::Importance) * solid_angle_to_area(v, x)
 }
 
 /// Area density with which the *eye* side produces vertex i from i+1 (and i+2): x_{k−1} by a
