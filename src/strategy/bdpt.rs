@@ -257,7 +257,7 @@ impl Bdpt {
 
     /// [`Bdpt::mis_weight`] from the path's densities p_L(x_i) (`pl`) and p_E(x_i) (`pe`),
     /// i < k, however they were obtained.
-    fn mis_weight_from(
+    pub(super) fn mis_weight_from(
         &self,
         path: &[Vertex],
         pl: &[f64],
@@ -269,7 +269,17 @@ impl Bdpt {
         if k > self.params.max_depth as usize + 1 {
             return None;
         }
-        let p = |s: usize| -> f64 { pl[..s].iter().product::<f64>() * pe[s..].iter().product::<f64>() };
+        // Prefix products of p_L and suffix products of p_E: every p_s in O(1) after O(k).
+        let mut light_prefix = Vec::with_capacity(k + 1);
+        light_prefix.push(1.0);
+        for &d in pl {
+            light_prefix.push(light_prefix[light_prefix.len() - 1] * d);
+        }
+        let mut eye_suffix = vec![1.0; k + 1];
+        for i in (0..k).rev() {
+            eye_suffix[i] = pe[i] * eye_suffix[i + 1];
+        }
+        let p = |s: usize| -> f64 { light_prefix[s] * eye_suffix[s] };
         // Technique s' joins x_{s'−1} and x_{s'}: both must be non-specular (the pinhole and a
         // hit of the eye walk on a light always may).
         // The eye walk cannot hit a point, spot or directional light (s' = 0 needs x₀ on an
@@ -304,7 +314,11 @@ impl Bdpt {
     fn sample(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> Sample {
         let eye = self.eye_subpath(scene, raster, rng);
         let light = self.light_subpath(scene, rng);
-        self.connect_all(scene, &eye, &light, None, rng)
+        let caches = (
+            &EyeCache::new(scene, &eye.vertices),
+            &LightCache::new(scene, &light.vertices),
+        );
+        self.connect_all(scene, &eye, &light, caches, None, rng)
     }
 
     /// Every connection technique (s = 0, t = 1, s ≥ 1 with t ≥ 2) between one eye and one
@@ -314,11 +328,11 @@ impl Bdpt {
         scene: &Scene,
         eye: &SubPath,
         light: &SubPath,
+        cache: (&EyeCache, &LightCache),
         eta: Option<f64>,
         rng: &mut Rng,
     ) -> Sample {
         let (z, y) = (&eye.vertices, &light.vertices);
-        let cache = SubPathCache::new(scene, y, z);
         let mut out = Sample {
             own: Vec3::ZERO,
             splats: Vec::new(),
@@ -328,7 +342,7 @@ impl Bdpt {
             if let Some(x0) = z[t - 1].as_light(scene) {
                 let mut path = vec![x0];
                 path.extend(z[..t - 1].iter().rev());
-                if let Some((v, _)) = self.weighted_cached(scene, &path, (0, t), &cache, eta) {
+                if let Some((v, _)) = self.weighted_cached(scene, &path, (0, t), cache, eta) {
                     out.own += v / eye.survival[t - 1] as f32;
                 }
             }
@@ -338,7 +352,7 @@ impl Bdpt {
             if y[s - 1].connectible() && camera_factor(scene, &y[s - 1]).is_some() {
                 let path = join(&y[..s], &z[..1]);
                 self.connections.fetch_add(1, Relaxed);
-                if let Some((v, r)) = self.weighted_cached(scene, &path, (s, 1), &cache, eta)
+                if let Some((v, r)) = self.weighted_cached(scene, &path, (s, 1), cache, eta)
                     && visible(scene, &y[s - 1], &z[0])
                 {
                     let v = v / light.survival[s - 1] as f32;
@@ -353,7 +367,7 @@ impl Bdpt {
                 }
                 let path = join(&y[..s], &z[..t]);
                 self.connections.fetch_add(1, Relaxed);
-                if let Some((v, _)) = self.weighted_cached(scene, &path, (s, t), &cache, eta)
+                if let Some((v, _)) = self.weighted_cached(scene, &path, (s, t), cache, eta)
                     && visible(scene, &y[s - 1], &z[t - 1])
                 {
                     out.own += v / (light.survival[s - 1] * eye.survival[t - 1]) as f32;
@@ -373,7 +387,7 @@ impl Bdpt {
         scene: &Scene,
         path: &[Vertex],
         (s, t): (usize, usize),
-        cache: &SubPathCache,
+        (eye, light): (&EyeCache, &LightCache),
         eta: Option<f64>,
     ) -> Option<(Vec3, Vec2)> {
         let k = path.len() - 1;
@@ -383,41 +397,27 @@ impl Bdpt {
         // f(X) = Le G(x₀, x₁) Π_{i=1}^{k−1} f_s(x_i) Π_{i=1}^{k−2} G(x_i, x_{i+1}) C(x_{k−1}).
         let (f, raster) = match (s, t) {
             (0, _) => (
-                emitted_first_edge(scene, path) * scattering(scene, path, 1) * cache.z_f[t - 1],
+                emitted_first_edge(scene, path) * scattering(scene, path, 1) * eye.f[t - 1],
                 Vec2::ZERO,
             ),
             (_, 1) => {
                 let (raster, c) = camera_factor(scene, &path[k - 1])?;
-                (cache.y_f[s] * scattering(scene, path, s - 1) * c, raster)
+                (light.f[s] * scattering(scene, path, s - 1) * c, raster)
             }
             (1, _) => (
-                emitted_first_edge(scene, path) * scattering(scene, path, 1) * cache.z_f[t],
+                emitted_first_edge(scene, path) * scattering(scene, path, 1) * eye.f[t],
                 Vec2::ZERO,
             ),
             _ => {
                 let connection =
                     scattering(scene, path, s - 1) * geometry(&path[s - 1], &path[s]) * scattering(scene, path, s);
-                (cache.y_f[s] * connection * cache.z_f[t], Vec2::ZERO)
+                (light.f[s] * connection * eye.f[t], Vec2::ZERO)
             }
         };
         if f == Vec3::ZERO || !f.is_finite() {
             return None;
         }
-        // Light-side vertices: the first s of `path`; eye-side ones: x_i = z_{k−i}.
-        let pl: Vec<f64> = (0..k)
-            .map(|i| match i {
-                _ if i < s => cache.y_pl[i],
-                _ if i <= s + 1 => pdf_light_side(scene, path, i) as f64,
-                _ => cache.z_pl[k - i],
-            })
-            .collect();
-        let pe: Vec<f64> = (0..k)
-            .map(|i| match i {
-                _ if i + 2 < s => cache.y_pe[i],
-                _ if i < s || (s == 0 && i == 0) => pdf_eye_side(scene, path, i) as f64,
-                _ => cache.z_pe[k - i],
-            })
-            .collect();
+        let (pl, pe) = cached_densities(scene, path, s, (eye, light));
         let (ps, sum) = self.mis_weight_from(path, &pl, &pe, Technique::Connect(s), eta)?;
         let n = scene.camera.pixel_count() as f64;
         let value = f.as_dvec3() * (ps / (sum * n));
@@ -425,71 +425,121 @@ impl Bdpt {
     }
 }
 
+/// p_L(x_i) and p_E(x_i), i < k, of `path`, made of the first `s` vertices of the light
+/// sub-path behind `light` and the eye sub-path behind `eye` (x_i = z_{k−i} for i ≥ s): from the
+/// caches, except the four densities the joining edge changes (p_L of x_s, x_{s+1}; p_E of
+/// x_{s−1}, x_{s−2}; with s = 0 p_L of x₀, x₁ and p_E of x₀).
+pub(super) fn cached_densities(
+    scene: &Scene,
+    path: &[Vertex],
+    s: usize,
+    (eye, light): (&EyeCache, &LightCache),
+) -> (Vec<f64>, Vec<f64>) {
+    let k = path.len() - 1;
+    let pl = (0..k)
+        .map(|i| match i {
+            _ if i < s => light.pl[i],
+            _ if i <= s + 1 => pdf_light_side(scene, path, i) as f64,
+            _ => eye.pl[k - i],
+        })
+        .collect();
+    let pe = (0..k)
+        .map(|i| match i {
+            _ if i + 2 < s => light.pe[i],
+            _ if i < s || (s == 0 && i == 0) => pdf_eye_side(scene, path, i) as f64,
+            _ => eye.pe[k - i],
+        })
+        .collect();
+    (pl, pe)
+}
+
 /// Le(x₀ → x₁) G(x₀, x₁) of a path.
 fn emitted_first_edge(scene: &Scene, path: &[Vertex]) -> Vec3 {
     emitted(scene, path) * geometry(&path[0], &path[1])
 }
 
-/// What a connection between a light sub-path y (L vertices) and an eye sub-path z
-/// (T vertices) does not change, computed once per pair of sub-paths (module doc, "MIS with
-/// cached sub-path factors").
-pub(super) struct SubPathCache {
+/// What no connection changes on a light sub-path y of L vertices, computed once (module doc,
+/// "MIS with cached sub-path factors").
+pub(super) struct LightCache {
     /// p_L(y_i), from y_{i−1} and y_{i−2} (i < L).
-    y_pl: Vec<f64>,
+    pl: Vec<f64>,
     /// p_E(y_i) when y_{i+1} and y_{i+2} follow it (i + 2 < L).
-    y_pe: Vec<f64>,
+    pe: Vec<f64>,
     /// Le G(y₀, y₁) Π_{i=1}^{s−2} f_s(y_i) G(y_i, y_{i+1}): the light prefix of a path with s
     /// light vertices, f_s at y_{s−1} excluded (index s ≥ 2).
-    y_f: Vec<Vec3>,
-    /// p_E(z_j), from z_{j−1} and z_{j−2} (1 ≤ j < T).
-    z_pe: Vec<f64>,
-    /// p_L(z_j) when z_{j+1} and z_{j+2} precede it on the light side (j + 2 < T).
-    z_pl: Vec<f64>,
-    /// C(z₁) Π_{j=1}^{t−2} f_s(z_j) G(z_{j+1}, z_j): the eye suffix of a path with t eye
-    /// vertices, f_s at z_{t−1} excluded (index t ≥ 2).
-    z_f: Vec<Vec3>,
+    f: Vec<Vec3>,
 }
 
-impl SubPathCache {
-    pub(super) fn new(scene: &Scene, y: &[Vertex], z: &[Vertex]) -> Self {
-        let (l, t) = (y.len(), z.len());
-        let y_pl = (0..l).map(|i| pdf_light_side(scene, y, i) as f64).collect();
-        let y_pe = (0..l.saturating_sub(2))
+impl LightCache {
+    pub(super) fn new(scene: &Scene, y: &[Vertex]) -> Self {
+        let l = y.len();
+        let pl = (0..l).map(|i| pdf_light_side(scene, y, i) as f64).collect();
+        let pe = (0..l.saturating_sub(2))
             .map(|i| pdf_eye_step(scene, &y[i], &y[i + 1], Some(&y[i + 2])) as f64)
             .collect();
-        let mut y_f = vec![Vec3::ZERO; l.max(2) + 1];
+        let mut f = vec![Vec3::ZERO; l.max(2) + 1];
         if l >= 2 {
-            y_f[2] = emitted_first_edge(scene, y);
+            f[2] = emitted_first_edge(scene, y);
             for s in 3..=l {
-                y_f[s] =
-                    y_f[s - 1] * scattering_at(scene, &y[s - 2], &y[s - 1], &y[s - 3]) * geometry(&y[s - 2], &y[s - 1]);
+                f[s] =
+                    f[s - 1] * scattering_at(scene, &y[s - 2], &y[s - 1], &y[s - 3]) * geometry(&y[s - 2], &y[s - 1]);
             }
         }
-        let z_pe = (0..t)
+        Self { pl, pe, f }
+    }
+
+    /// α_L(u) = f / p of the sub-path up to y_u (u ≥ 1) in area measure: a photon's flux (`vcm`).
+    pub(super) fn alpha(&self, u: usize) -> Vec3 {
+        let p: f64 = self.pl[..=u].iter().product();
+        if !(p > 0.0 && p.is_finite()) {
+            return Vec3::ZERO;
+        }
+        (self.f[u + 1].as_dvec3() / p).as_vec3()
+    }
+}
+
+/// What no connection changes on an eye sub-path z of T vertices (z₀ the pinhole).
+pub(super) struct EyeCache {
+    /// p_E(z_j), from z_{j−1} and z_{j−2} (1 ≤ j < T; index 0 unused).
+    pe: Vec<f64>,
+    /// p_L(z_j) when z_{j+1} and z_{j+2} precede it on the light side (j + 2 < T).
+    pl: Vec<f64>,
+    /// C(z₁) Π_{j=1}^{t−2} f_s(z_j) G(z_{j+1}, z_j): the eye suffix of a path with t eye
+    /// vertices, f_s at z_{t−1} excluded (index t ≥ 2).
+    f: Vec<Vec3>,
+}
+
+impl EyeCache {
+    pub(super) fn new(scene: &Scene, z: &[Vertex]) -> Self {
+        let t = z.len();
+        let pe = (0..t)
             .map(|j| match j {
                 0 => 0.0,
                 _ => pdf_eye_step(scene, &z[j], &z[j - 1], j.checked_sub(2).map(|i| &z[i])) as f64,
             })
             .collect();
-        let z_pl = (0..t.saturating_sub(2))
+        let pl = (0..t.saturating_sub(2))
             .map(|j| pdf_light_step(scene, &z[j], &z[j + 1], &z[j + 2]) as f64)
             .collect();
-        let mut z_f = vec![Vec3::ZERO; t.max(2) + 1];
+        let mut f = vec![Vec3::ZERO; t.max(2) + 1];
         if t >= 2 {
-            z_f[2] = camera_factor(scene, &z[1]).map_or(Vec3::ZERO, |(_, c)| Vec3::splat(c));
+            f[2] = camera_factor(scene, &z[1]).map_or(Vec3::ZERO, |(_, c)| Vec3::splat(c));
             for j in 3..=t {
-                z_f[j] =
-                    z_f[j - 1] * scattering_at(scene, &z[j - 2], &z[j - 3], &z[j - 1]) * geometry(&z[j - 1], &z[j - 2]);
+                f[j] =
+                    f[j - 1] * scattering_at(scene, &z[j - 2], &z[j - 3], &z[j - 1]) * geometry(&z[j - 1], &z[j - 2]);
             }
         }
-        Self {
-            y_pl,
-            y_pe,
-            y_f,
-            z_pe,
-            z_pl,
-            z_f,
+        Self { pe, pl, f }
+    }
+
+    /// α_E(t − 1) = f / p per pixel of the sub-path up to z_{t−1} (t ≥ 2): C(z₁) Π f_s G over N
+    /// (`pixels`) times the densities of z₁ … z_{t−1} (`vcm`).
+    pub(super) fn alpha(&self, t: usize, pixels: f64) -> Vec3 {
+        let p: f64 = self.pe[1..t].iter().product::<f64>() * pixels;
+        if !(p > 0.0 && p.is_finite()) {
+            return Vec3::ZERO;
         }
+        (self.f[t].as_dvec3() / p).as_vec3()
     }
 }
 
@@ -616,7 +666,7 @@ mod tests {
                 let eye = bdpt.eye_subpath(&scene, raster, &mut rng);
                 let light = bdpt.light_subpath(&scene, &mut rng);
                 let (z, y) = (&eye.vertices, &light.vertices);
-                let cache = SubPathCache::new(&scene, y, z);
+                let cache = (&EyeCache::new(&scene, z), &LightCache::new(&scene, y));
                 let mut paths = Vec::new();
                 for t in 2..=z.len() {
                     if let Some(x0) = z[t - 1].as_light(&scene) {
@@ -635,7 +685,7 @@ mod tests {
                 for eta in [None, Some(0.37)] {
                     for (path, s, t) in &paths {
                         let whole = bdpt.weighted(&scene, path, *s, eta);
-                        let cached = bdpt.weighted_cached(&scene, path, (*s, *t), &cache, eta);
+                        let cached = bdpt.weighted_cached(&scene, path, (*s, *t), cache, eta);
                         let close =
                             |a: Vec3, b: Vec3| (a - b).abs().max_element() <= 2e-4 * a.abs().max_element().max(1e-30);
                         match (whole, cached) {
@@ -653,6 +703,21 @@ mod tests {
                             (a, b) => panic!("{file}, sample {i}, (s, t) = ({s}, {t}): whole {a:?}, cached {b:?}"),
                         }
                         compared += 1;
+                        // Vertex merging at x_s (vcm) weighs the same path from the same densities.
+                        if let (Some(_), true) = (eta, *s >= 1 && *t >= 2) {
+                            let whole = bdpt.mis_weight(&scene, path, Technique::Merge(*s), eta);
+                            let (pl, pe) = cached_densities(&scene, path, *s, cache);
+                            let cached = bdpt.mis_weight_from(path, &pl, &pe, Technique::Merge(*s), eta);
+                            let w = |m: Option<(f64, f64)>| m.map(|(p, sum)| p * p / sum);
+                            match (w(whole), w(cached)) {
+                                (Some(a), Some(b)) => assert!(
+                                    (a - b).abs() <= 2e-4 * a,
+                                    "{file}, sample {i}, merge at x_{s}: {a} vs {b}"
+                                ),
+                                (None, None) => {}
+                                (a, b) => panic!("{file}, sample {i}, merge at x_{s}: whole {a:?}, cached {b:?}"),
+                            }
+                        }
                     }
                 }
             }

@@ -32,7 +32,7 @@
 //! PPM mode: the eye path stops at its first non-specular vertex and merges there, emitters
 //! count when seen directly or through specular bounces, no weights.
 
-use super::bdpt::{Bdpt, BdptParams, Sample, SubPath, Technique, pixel_pass};
+use super::bdpt::{Bdpt, BdptParams, EyeCache, LightCache, Sample, SubPath, Technique, cached_densities, pixel_pass};
 use super::{Declared, Strategy};
 use crate::error::Result;
 use crate::film::Film;
@@ -133,7 +133,9 @@ fn bounding_radius(scene: &Scene) -> f64 {
 }
 
 /// α_L(u) of light sub-path `y` (u ≥ 1): its f / p up to y_u in area measure, which is the
-/// photon's flux (the cosine at y_u cancels between G and p_L(y_u)).
+/// photon's flux (the cosine at y_u cancels between G and p_L(y_u)). [`LightCache::alpha`]
+/// gives the same from a sub-path's cache; this whole-path form serves `ppm` mode, which builds
+/// no caches.
 fn light_alpha(scene: &Scene, y: &[Vertex], u: usize) -> Vec3 {
     let prefix = &y[..=u];
     let p: f64 = (0..=u).map(|i| pdf_light_side(scene, prefix, i) as f64).product();
@@ -144,7 +146,8 @@ fn light_alpha(scene: &Scene, y: &[Vertex], u: usize) -> Vec3 {
 }
 
 /// α_E(t−1) of eye sub-path `z` (z₀ the pinhole): its f / p per pixel up to z_{t−1},
-/// C(z₁) Π f_s G / (N Π p_E), 1 at z₁.
+/// C(z₁) Π f_s G / (N Π p_E), 1 at z₁ ([`EyeCache::alpha`] from a cache; this whole-path form
+/// serves `ppm` mode).
 fn eye_alpha(scene: &Scene, z: &[Vertex], t: usize) -> Vec3 {
     let rev: Vec<Vertex> = z[..t].iter().rev().copied().collect();
     let k = t - 1;
@@ -163,6 +166,14 @@ fn eye_alpha(scene: &Scene, z: &[Vertex], t: usize) -> Vec3 {
     (f.as_dvec3() / p).as_vec3()
 }
 
+/// One pass's light side: a sub-path per pixel, their connection caches (empty in `ppm`
+/// mode) and the kd-tree of their merging vertices.
+struct LightPass {
+    paths: Vec<SubPath>,
+    caches: Vec<LightCache>,
+    points: KdTree<LightPoint>,
+}
+
 impl Vcm {
     /// r_i of pass `s` (0-based: i = s + 1).
     fn radius(&self, s: u32) -> f64 {
@@ -171,22 +182,25 @@ impl Vcm {
     }
 
     /// The light sub-paths of pass `s` and the kd-tree of their merging vertices.
-    fn light_pass(&self, scene: &Scene, seed: u64, s: u32, merging: bool) -> (Vec<SubPath>, KdTree<LightPoint>) {
+    /// With `connecting`, each sub-path's connection cache too (every mode but `ppm`).
+    fn light_pass(&self, scene: &Scene, seed: u64, s: u32, merging: bool, connecting: bool) -> LightPass {
         let n = scene.camera.pixel_count();
-        let chunks: Vec<(Vec<SubPath>, Vec<LightPoint>)> = (0..n.div_ceil(CHUNK))
+        let chunks: Vec<(Vec<SubPath>, Vec<LightCache>, Vec<LightPoint>)> = (0..n.div_ceil(CHUNK))
             .into_par_iter()
             .map(|c| {
-                let (mut paths, mut points) = (Vec::new(), Vec::new());
+                let (mut paths, mut caches, mut points) = (Vec::new(), Vec::new(), Vec::new());
                 for j in c * CHUNK..((c + 1) * CHUNK).min(n) {
                     let mut rng = Rng::for_task(seed, [stream::VCM_LIGHT, s as u64, j as u64]);
                     let sub = self.bdpt.light_subpath(scene, &mut rng);
+                    let cache = connecting.then(|| LightCache::new(scene, &sub.vertices));
                     if merging {
                         let y = &sub.vertices;
                         for u in 1..y.len() {
                             if !(y[u].is_surface() && y[u].connectible()) {
                                 continue;
                             }
-                            let alpha = light_alpha(scene, y, u) / sub.survival[u] as f32;
+                            let alpha = cache.as_ref().map_or_else(|| light_alpha(scene, y, u), |c| c.alpha(u));
+                            let alpha = alpha / sub.survival[u] as f32;
                             if alpha != Vec3::ZERO && alpha.is_finite() {
                                 points.push(LightPoint {
                                     p: y[u].p,
@@ -197,19 +211,25 @@ impl Vcm {
                             }
                         }
                     }
+                    caches.extend(cache);
                     paths.push(sub);
                 }
-                (paths, points)
+                (paths, caches, points)
             })
             .collect();
-        let mut paths = Vec::with_capacity(n);
+        let (mut paths, mut caches) = (Vec::with_capacity(n), Vec::with_capacity(n));
         let mut points = Vec::new();
-        for (p, q) in chunks {
+        for (p, c, q) in chunks {
             paths.extend(p);
+            caches.extend(c);
             points.extend(q);
         }
         self.light_vertices.fetch_add(points.len() as u64, Relaxed);
-        (paths, KdTree::build(points))
+        LightPass {
+            paths,
+            caches,
+            points: KdTree::build(points),
+        }
     }
 
     /// What merging at eye vertex z_{t−1} adds (weighted unless `weights` is false).
@@ -219,9 +239,10 @@ impl Vcm {
         z: &[Vertex],
         t: usize,
         alpha_e: Vec3,
-        (lights, points, r, eta): (&[SubPath], &KdTree<LightPoint>, f64, f64),
-        weights: bool,
+        (pass, r, eta): (&LightPass, f64, f64),
+        weights: Option<&EyeCache>,
     ) -> DVec3 {
+        let (lights, points) = (&pass.paths, &pass.points);
         let x = z[t - 1];
         let items = points.items();
         let mut sum = DVec3::ZERO;
@@ -238,10 +259,14 @@ impl Vcm {
             if f == Vec3::ZERO {
                 return;
             }
-            let w = if weights {
+            let w = if let Some(eye) = weights {
                 let mut path = y[..u].to_vec();
                 path.extend(z[..t].iter().rev());
-                match self.bdpt.mis_weight(scene, &path, Technique::Merge(u), Some(eta)) {
+                let (pl, pe) = cached_densities(scene, &path, u, (eye, &pass.caches[lp.path as usize]));
+                match self
+                    .bdpt
+                    .mis_weight_from(&path, &pl, &pe, Technique::Merge(u), Some(eta))
+                {
                     Some((p, sum_sq)) => p * p / sum_sq,
                     None => return,
                 }
@@ -256,27 +281,27 @@ impl Vcm {
     }
 
     /// One pixel sample: `bdpt`'s connections with light sub-path `j` and merging (by mode).
-    fn pixel(
-        &self,
-        scene: &Scene,
-        eye: &SubPath,
-        j: usize,
-        merge: (&[SubPath], &KdTree<LightPoint>, f64, f64),
-        rng: &mut Rng,
-    ) -> Sample {
+    fn pixel(&self, scene: &Scene, eye: &SubPath, j: usize, merge: (&LightPass, f64, f64), rng: &mut Rng) -> Sample {
         let z = &eye.vertices;
-        let eta = merge.3;
+        let eta = merge.2;
         match self.params.mode {
-            VcmMode::Bpt => self.bdpt.connect_all(scene, eye, &merge.0[j], None, rng),
+            VcmMode::Bpt => {
+                let caches = (&EyeCache::new(scene, z), &merge.0.caches[j]);
+                self.bdpt.connect_all(scene, eye, &merge.0.paths[j], caches, None, rng)
+            }
             VcmMode::Vcm => {
-                let mut sample = self.bdpt.connect_all(scene, eye, &merge.0[j], Some(eta), rng);
+                let eye_cache = EyeCache::new(scene, z);
+                let caches = (&eye_cache, &merge.0.caches[j]);
+                let mut sample = self
+                    .bdpt
+                    .connect_all(scene, eye, &merge.0.paths[j], caches, Some(eta), rng);
                 let mut own = sample.own.as_dvec3();
                 for t in 2..=z.len() {
                     if !(z[t - 1].is_surface() && z[t - 1].connectible()) {
                         continue;
                     }
-                    let alpha_e = eye_alpha(scene, z, t) / eye.survival[t - 1] as f32;
-                    own += self.merge_at(scene, z, t, alpha_e, merge, true);
+                    let alpha_e = eye_cache.alpha(t, scene.camera.pixel_count() as f64) / eye.survival[t - 1] as f32;
+                    own += self.merge_at(scene, z, t, alpha_e, merge, Some(&eye_cache));
                 }
                 sample.own = own.as_vec3();
                 sample
@@ -289,7 +314,7 @@ impl Vcm {
                         own += (alpha_e * emitted(scene, &[x0, z[t - 2]])).as_dvec3();
                     }
                     if z[t - 1].is_surface() && z[t - 1].connectible() {
-                        own += self.merge_at(scene, z, t, alpha_e, merge, false);
+                        own += self.merge_at(scene, z, t, alpha_e, merge, None);
                         break;
                     }
                 }
@@ -334,8 +359,8 @@ impl Strategy for Vcm {
         for s in samples {
             let r = self.radius(s);
             let eta = std::f64::consts::PI * r * r * n as f64;
-            let (lights, points) = self.light_pass(scene, seed, s, merging);
-            let merge = (lights.as_slice(), &points, r, eta);
+            let pass = self.light_pass(scene, seed, s, merging, self.params.mode != VcmMode::Ppm);
+            let merge = (&pass, r, eta);
             pixel_pass(scene, film, |p| {
                 let mut rng = Rng::for_task(seed, [stream::VCM_EYE, p as u64, s as u64]);
                 let raster = scene.camera.sample_raster(p, rng.uniform2());
@@ -366,6 +391,38 @@ impl Strategy for Vcm {
 mod tests {
     use super::*;
     use crate::photon::test_scenes::emitting_box;
+
+    /// Photon flux α_L and eye weight α_E from the sub-path caches equal their whole-path
+    /// evaluation, on specular chains (cornell-spheres) and under an environment map.
+    #[test]
+    fn cached_alphas_equal_whole_path_alphas() {
+        use super::super::bdpt::{EyeCache, LightCache};
+        for file in ["scenes/cornell-spheres.toml", "scenes/mitsuba/matpreview-copper.xml"] {
+            let scene = crate::scene::load_scene(std::path::Path::new(file)).unwrap();
+            let vcm = <Vcm as Declared>::new(VcmParams::default()).unwrap();
+            let pixels = scene.camera.pixel_count() as f64;
+            let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() <= 1e-4 * a.abs().max_element().max(1e-30);
+            let mut compared = 0;
+            for i in 0..300u64 {
+                let mut rng = Rng::for_task(4, [i, 0, 0]);
+                let raster = scene.camera.sample_raster(i as usize, rng.uniform2());
+                let z = vcm.bdpt.eye_subpath(&scene, raster, &mut rng).vertices;
+                let y = vcm.bdpt.light_subpath(&scene, &mut rng).vertices;
+                let (eye, light) = (EyeCache::new(&scene, &z), LightCache::new(&scene, &y));
+                for u in 1..y.len() {
+                    let (a, b) = (light_alpha(&scene, &y, u), light.alpha(u));
+                    assert!(close(a, b), "{file}, sample {i}, α_L({u}): {a:?} vs {b:?}");
+                    compared += usize::from(a != Vec3::ZERO);
+                }
+                for t in 2..=z.len() {
+                    let (a, b) = (eye_alpha(&scene, &z, t), eye.alpha(t, pixels));
+                    assert!(close(a, b), "{file}, sample {i}, α_E({t}): {a:?} vs {b:?}");
+                    compared += usize::from(a != Vec3::ZERO);
+                }
+            }
+            assert!(compared > 500, "{file}: {compared} non-zero alphas compared");
+        }
+    }
 
     /// Mean luminance over 6 seeds of 12 passes, and its standard error.
     fn furnace_mean(scene: &Scene, params: &str) -> (f64, f64) {
