@@ -33,10 +33,11 @@
 //! forward and reverse densities), instead of all 2k densities and k factors of its path
 //! (the earlier "MIS by recomputation", kept as [`Bdpt::mis_weight`] for vertex merging in
 //! `vcm` and as the reference a unit test holds every technique to, within 2·10⁻⁴). Measured
-//! side by side (`bench perf --strategies path,bdpt,vcm --samples 4`, `cornell-box`, 2
-//! threads, the build before the session's BVH change against this one): `bdpt` 436 k → 537 k
-//! pixel samples/s (1.23×, of which the BVH gave about 1.08×), `vcm` 293 k → 329 k (1.12×); the
-//! rest is the technique's own cost, dominated by its rays (a shadow ray per connection).
+//! side by side with the build before it (perf-suite cases `cornell-box` 64 × 64 and
+//! `cornell-spheres` 32 × 32 at 16 spp, two alternating runs of 5 rounds, 2 threads): `bdpt`
+//! 1.10–1.13×, `vcm` 1.08–1.19× pixel samples/s (`path`, untouched, 1.01×); on `cornell-empty`
+//! no gain. The rest is the technique's own cost: its rays (a shadow ray per connection) and
+//! per-connection allocations.
 
 use super::{Declared, Strategy};
 use crate::bsdf::TransportMode;
