@@ -248,9 +248,6 @@ impl Bdpt {
         eta: Option<f64>,
     ) -> Option<(f64, f64)> {
         let k = path.len() - 1;
-        if k > self.params.max_depth as usize + 1 {
-            return None;
-        }
         let pl: Vec<f64> = (0..k).map(|i| pdf_light_side(scene, path, i) as f64).collect();
         let pe: Vec<f64> = (0..k).map(|i| pdf_eye_side(scene, path, i) as f64).collect();
         self.mis_weight_from(path, &pl, &pe, technique, eta)
