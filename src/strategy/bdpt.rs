@@ -26,13 +26,14 @@
 //!
 //! **MIS with cached sub-path factors.** The densities and f come from the path-space
 //! functions the Metropolis strategies test. Each sub-path first caches what no connection
-//! changes (`SubPathCache`): every vertex's density from its own side and from the other side
-//! where its two neighbours are its own, and the throughput products f_s G of its prefix; a
-//! connection then evaluates only the two scattering factors and the geometry term of the
-//! connecting edge and the four densities next to it (pbrt-v3's `MISWeight` caches the same
-//! forward and reverse densities), instead of all 2k densities and k factors of its path
-//! (the earlier "MIS by recomputation", kept as [`Bdpt::mis_weight`] for vertex merging in
-//! `vcm` and as the reference a unit test holds every technique to, within 2·10⁻⁴). Measured
+//! changes ([`LightCache`], [`EyeCache`]): every vertex's density from its own side and from
+//! the other side where its two neighbours are its own, and the throughput products f_s G of
+//! its prefix; a connection (or a `vcm` merge) then evaluates only the two scattering factors
+//! and the geometry term of the connecting edge and the four densities next to it (pbrt-v3's
+//! `MISWeight` caches the same forward and reverse densities), instead of all 2k densities and
+//! k factors of its path (the earlier "MIS by recomputation", kept as [`Bdpt::mis_weight`] and
+//! [`Bdpt::weighted`]: the reference a unit test holds every technique to, within 2·10⁻⁴, and
+//! the route of one-edge paths). Measured
 //! side by side with the build before it (perf-suite cases `cornell-box` 64 × 64 and
 //! `cornell-spheres` 32 × 32 at 16 spp, two alternating runs of 5 rounds, 2 threads): `bdpt`
 //! 1.10–1.13×, `vcm` 1.08–1.19× pixel samples/s (`path`, untouched, 1.01×); on `cornell-empty`
