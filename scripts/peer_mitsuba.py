@@ -8,6 +8,11 @@ on the same machine and quote the ratio (see docs/design.md, "Performance").
 
     pip install mitsuba          # 3.x; variant scalar_rgb needs nothing else
     python3 scripts/peer_mitsuba.py --spp 64 --threads 2
+
+The JIT variant needs an LLVM >= 17 (Debian 12: `apt-get install libllvm19`):
+
+    DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \
+        python3 scripts/peer_mitsuba.py --spp 64 --threads 2 --variant llvm_ad_rgb
 """
 import argparse
 import time
