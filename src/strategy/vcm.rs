@@ -37,9 +37,7 @@ use super::{Declared, Strategy};
 use crate::error::Result;
 use crate::film::Film;
 use crate::params::{Params, Range};
-use crate::path_space::{
-    Vertex, camera_factor, emitted, geometry, light_throughput, pdf_eye_side, pdf_light_side, scattering,
-};
+use crate::path_space::{Vertex, camera_factor, emitted, geometry, pdf_eye_side, scattering};
 use crate::photon::{KdPoint, KdTree};
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
@@ -132,19 +130,6 @@ fn bounding_radius(scene: &Scene) -> f64 {
     if r.is_finite() && r > 0.0 { r } else { 1.0 }
 }
 
-/// α_L(u) of light sub-path `y` (u ≥ 1): its f / p up to y_u in area measure, which is the
-/// photon's flux (the cosine at y_u cancels between G and p_L(y_u)). [`LightCache::alpha`]
-/// gives the same from a sub-path's cache; this whole-path form serves `ppm` mode, which builds
-/// no caches.
-fn light_alpha(scene: &Scene, y: &[Vertex], u: usize) -> Vec3 {
-    let prefix = &y[..=u];
-    let p: f64 = (0..=u).map(|i| pdf_light_side(scene, prefix, i) as f64).product();
-    if !(p > 0.0 && p.is_finite()) {
-        return Vec3::ZERO;
-    }
-    (light_throughput(scene, prefix, u).as_dvec3() / p).as_vec3()
-}
-
 /// α_E(t−1) of eye sub-path `z` (z₀ the pinhole): its f / p per pixel up to z_{t−1},
 /// C(z₁) Π f_s G / (N Π p_E), 1 at z₁ ([`EyeCache::alpha`] from a cache; this whole-path form
 /// serves `ppm` mode).
@@ -166,8 +151,8 @@ fn eye_alpha(scene: &Scene, z: &[Vertex], t: usize) -> Vec3 {
     (f.as_dvec3() / p).as_vec3()
 }
 
-/// One pass's light side: a sub-path per pixel, their connection caches (empty in `ppm`
-/// mode) and the kd-tree of their merging vertices.
+/// One pass's light side: a sub-path per pixel, their caches and the kd-tree of their merging
+/// vertices.
 struct LightPass {
     paths: Vec<SubPath>,
     caches: Vec<LightCache>,
@@ -181,9 +166,9 @@ impl Vcm {
         r1 * ((s + 1) as f64).powf(0.5 * (self.params.alpha - 1.0))
     }
 
-    /// The light sub-paths of pass `s` and the kd-tree of their merging vertices.
-    /// With `connecting`, each sub-path's connection cache too (every mode but `ppm`).
-    fn light_pass(&self, scene: &Scene, seed: u64, s: u32, merging: bool, connecting: bool) -> LightPass {
+    /// The light sub-paths of pass `s`, their caches (connections and photon fluxes α_L read
+    /// them) and the kd-tree of their merging vertices.
+    fn light_pass(&self, scene: &Scene, seed: u64, s: u32, merging: bool) -> LightPass {
         let n = scene.camera.pixel_count();
         let chunks: Vec<(Vec<SubPath>, Vec<LightCache>, Vec<LightPoint>)> = (0..n.div_ceil(CHUNK))
             .into_par_iter()
@@ -192,18 +177,16 @@ impl Vcm {
                 for j in c * CHUNK..((c + 1) * CHUNK).min(n) {
                     let mut rng = Rng::for_task(seed, [stream::VCM_LIGHT, s as u64, j as u64]);
                     let sub = self.bdpt.light_subpath(scene, &mut rng);
-                    let cache = connecting.then(|| LightCache::new(scene, &sub.vertices));
+                    let cache = LightCache::new(scene, &sub.vertices);
                     if merging {
-                        let y = &sub.vertices;
-                        for u in 1..y.len() {
-                            if !(y[u].is_surface() && y[u].connectible()) {
+                        for (u, y_u) in sub.vertices.iter().enumerate().skip(1) {
+                            if !(y_u.is_surface() && y_u.connectible()) {
                                 continue;
                             }
-                            let alpha = cache.as_ref().map_or_else(|| light_alpha(scene, y, u), |c| c.alpha(u));
-                            let alpha = alpha / sub.survival[u] as f32;
+                            let alpha = cache.alpha(u) / sub.survival[u] as f32;
                             if alpha != Vec3::ZERO && alpha.is_finite() {
                                 points.push(LightPoint {
-                                    p: y[u].p,
+                                    p: y_u.p,
                                     alpha,
                                     path: j as u32,
                                     vertex: u as u32,
@@ -211,7 +194,7 @@ impl Vcm {
                             }
                         }
                     }
-                    caches.extend(cache);
+                    caches.push(cache);
                     paths.push(sub);
                 }
                 (paths, caches, points)
@@ -359,7 +342,7 @@ impl Strategy for Vcm {
         for s in samples {
             let r = self.radius(s);
             let eta = std::f64::consts::PI * r * r * n as f64;
-            let pass = self.light_pass(scene, seed, s, merging, self.params.mode != VcmMode::Ppm);
+            let pass = self.light_pass(scene, seed, s, merging);
             let merge = (&pass, r, eta);
             pixel_pass(scene, film, |p| {
                 let mut rng = Rng::for_task(seed, [stream::VCM_EYE, p as u64, s as u64]);
@@ -390,7 +373,19 @@ impl Strategy for Vcm {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::path_space::{light_throughput, pdf_light_side};
     use crate::photon::test_scenes::emitting_box;
+
+    /// α_L(u) of light sub-path `y` (u ≥ 1) from the whole path, the reference for
+    /// [`LightCache::alpha`]: its f / p up to y_u in area measure, the photon's flux.
+    fn light_alpha(scene: &Scene, y: &[Vertex], u: usize) -> Vec3 {
+        let prefix = &y[..=u];
+        let p: f64 = (0..=u).map(|i| pdf_light_side(scene, prefix, i) as f64).product();
+        if !(p > 0.0 && p.is_finite()) {
+            return Vec3::ZERO;
+        }
+        (light_throughput(scene, prefix, u).as_dvec3() / p).as_vec3()
+    }
 
     /// Photon flux α_L and eye weight α_E from the sub-path caches equal their whole-path
     /// evaluation, on specular chains (cornell-spheres) and under an environment map.
