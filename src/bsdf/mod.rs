@@ -333,6 +333,18 @@ impl Bsdf {
         }
     }
 
+    /// The probability that [`Bsdf::sample`] from `wo` chooses a delta lobe: 1 for models with
+    /// only delta lobes, 0 for models without, the coating's share for a smooth plastic.
+    pub fn delta_probability(&self, wo: Vec3) -> f32 {
+        match self {
+            Bsdf::OneSided(b) if wo.z > 0.0 => b.delta_probability(wo),
+            Bsdf::OneSided(_) => 0.0,
+            Bsdf::Plastic(b) if has_energy(b.diffuse_reflectance) => b.specular_probability(wo.z.abs()),
+            b if b.is_delta() => 1.0,
+            _ => 0.0,
+        }
+    }
+
     /// True when every lobe is a delta distribution (no light sampling is useful here).
     pub fn is_delta(&self) -> bool {
         self.kind() == SurfaceKind::Specular

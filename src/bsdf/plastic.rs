@@ -59,7 +59,7 @@ impl Plastic {
 
     /// Probability of sampling the coating's reflection for cos θo = `mu` (> 0).
     #[inline]
-    fn specular_probability(&self, mu: f32) -> f32 {
+    pub(super) fn specular_probability(&self, mu: f32) -> f32 {
         let d_mean = self.diffuse_reflectance.element_sum() / 3.0;
         let s_mean = self.specular_reflectance.element_sum() / 3.0;
         let s = if d_mean + s_mean > 0.0 {

@@ -13,7 +13,7 @@ use super::{MetropolisParams, UserPathInfo};
 use crate::bsdf::TransportMode;
 use crate::geometry::Frame;
 use crate::path_space::walk::{
-    extend_eye_side, extend_eye_to_diffuse, extend_light_side, join, raster_of, sample_direction, trace, trace_from,
+    extend_eye_side, extend_eye_to_diffuse, extend_light_side, join, raster_of, scatter, trace, trace_from,
 };
 use crate::path_space::{
     Vertex, camera_factor, direction, first_diffuse_from_eye, pdf_eye_side, pdf_light_side, solid_angle_to_area,
@@ -520,9 +520,8 @@ pub fn photon_map(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Candidat
         if rev.len() > budget {
             return None;
         }
-        let (v, from) = (rev[rev.len() - 1], rev[rev.len() - 2]);
-        let w = sample_direction(scene, &v, &from, TransportMode::Radiance, rng)?;
-        next = trace_from(scene, &v, w)?;
+        let w = scatter(scene, &mut rev, TransportMode::Radiance, rng)?.wi;
+        next = trace_from(scene, &rev[rev.len() - 1], w)?;
     }
     if !visible(scene, &x[e - 1], rev.last()?) {
         return None;

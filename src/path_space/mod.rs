@@ -18,6 +18,12 @@
 //! ("dropped deltas"). Each density below then has the same delta factors as f, so every
 //! ratio f / p and f(Y) T(X|Y) / (f(X) T(Y|X)) is that of the true measures [Veach 1997,
 //! §8.3.2 and §10.3.5]; a connection (deterministic edge) must join two non-delta vertices.
+//! A model with both kinds of lobe (smooth plastic) splits path space into components [Veach
+//! 1997, §8.3.2]: its vertex is specular in the paths that took the delta lobe there and
+//! non-delta in the others, so `Vertex::delta` is a property of the path, set by the walk that
+//! sampled the lobe (`mixed` vertices), and a connection or merge ending there takes the
+//! non-delta lobe ([`Vertex::as_endpoint`]; [`walk::join`] does it). This is pbrt-v3's
+//! per-vertex `delta` of bidirectional methods.
 //!
 //! **Light from infinitely far away** (environment and directional light) [Veach 1997,
 //! §8.3.3 on emitters at infinity; pbrt-v4 §13.9]: x₀ is a direction, not a point — the vertex
@@ -83,13 +89,21 @@ pub struct Vertex {
     /// Texture coordinates (surface vertices of textured materials; zero otherwise).
     pub uv: Vec2,
     pub kind: VertexKind,
-    /// Only delta lobes (mirror, smooth dielectric): a "specular" vertex, S in Heckbert's grammar.
+    /// The path scatters here through a delta lobe: a "specular" vertex, S in Heckbert's
+    /// grammar. Fixed by the material for models with only delta lobes (mirror, smooth
+    /// dielectric) or none; for a model with both (`mixed`) it records the lobe the path took.
     pub delta: bool,
+    /// The material has a delta lobe beside a non-delta one (Mitsuba's smooth `plastic`): the
+    /// vertex is made non-delta (the end a connection or a merge sees, [`Vertex::as_endpoint`])
+    /// and becomes delta when the walk leaving it samples the delta lobe
+    /// ([`walk::sample_direction`]). Module doc, "Specular vertices".
+    pub mixed: bool,
 }
 
 impl Vertex {
     /// A scattering vertex at a ray hit.
     pub fn surface(scene: &Scene, hit: &SurfaceHit) -> Self {
+        let bsdf = scene.bsdf(hit);
         Self {
             p: hit.p,
             ng: hit.ng,
@@ -98,7 +112,8 @@ impl Vertex {
             material: hit.material,
             uv: scene.texture_uv(hit),
             kind: VertexKind::Surface,
-            delta: scene.bsdf(hit).is_delta(),
+            delta: bsdf.is_delta(),
+            mixed: bsdf.mixes_delta(),
         }
     }
 
@@ -114,6 +129,7 @@ impl Vertex {
             uv: Vec2::ZERO,
             kind: VertexKind::Light(light as u32),
             delta: false,
+            mixed: false,
         }
     }
 
@@ -133,6 +149,7 @@ impl Vertex {
                 uv: Vec2::ZERO,
                 kind: VertexKind::DeltaLight(j as u32),
                 delta: false,
+                mixed: false,
             },
         }
     }
@@ -155,6 +172,7 @@ impl Vertex {
             uv: Vec2::ZERO,
             kind,
             delta: false,
+            mixed: false,
         }
     }
 
@@ -170,6 +188,7 @@ impl Vertex {
             uv: Vec2::ZERO,
             kind: VertexKind::Eye,
             delta: false,
+            mixed: false,
         }
     }
 
@@ -210,10 +229,28 @@ impl Vertex {
         self.kind == VertexKind::Surface
     }
 
-    /// Can a deterministic edge (a connection) end here? Not at specular vertices.
+    /// Can a deterministic edge (a connection) end here in this path? Not where the path
+    /// scatters through a delta lobe.
     #[inline]
     pub fn connectible(&self) -> bool {
         !self.delta
+    }
+
+    /// Can a connection or a merge end at this vertex of a sub-path, whatever lobe the walk took
+    /// when it went on from here? Everywhere but on models with only delta lobes.
+    #[inline]
+    pub fn can_end_connection(&self) -> bool {
+        !self.delta || self.mixed
+    }
+
+    /// The vertex as the end of a connection or a merge: on a model with both kinds of lobe,
+    /// the non-delta one (a deterministic edge meets only a density, never a delta).
+    #[inline]
+    pub fn as_endpoint(&self) -> Self {
+        Self {
+            delta: self.delta && !self.mixed,
+            ..*self
+        }
     }
 
     #[inline]

@@ -37,9 +37,21 @@ pub fn trace_from(scene: &Scene, v: &Vertex, d: Vec3) -> Option<Vertex> {
     trace(scene, &spawn_ray(v.p, v.ng, d))
 }
 
-/// Samples a direction at surface vertex `v`, reached from `from`, with the BSDF in `mode`
-/// (world space). `None` when the BSDF absorbs or the shading and geometric normals disagree.
-pub fn sample_direction(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rng: &mut Rng) -> Option<Vec3> {
+/// A direction sampled at a surface vertex ([`sample_step`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step {
+    /// The direction, world space, unit.
+    pub wi: Vec3,
+    /// A delta lobe made it: the vertex is specular in the path that goes on this way.
+    pub delta: bool,
+    /// f_s |cos θ| / p_ω (a delta lobe: its coefficient |cos θ| over its probability), the
+    /// factor the walk's throughput takes on.
+    pub weight: Vec3,
+}
+
+/// Samples a direction at surface vertex `v`, reached from `from`, with the BSDF in `mode`.
+/// `None` when the BSDF absorbs or the shading and geometric normals disagree.
+pub fn sample_step(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rng: &mut Rng) -> Option<Step> {
     let wo = v.frame.to_local(direction(v, from).0);
     let (u, u_lobe) = (rng.uniform2(), rng.uniform());
     let s = v.bsdf(scene).sample(wo, u, u_lobe, mode)?;
@@ -47,7 +59,20 @@ pub fn sample_direction(scene: &Scene, v: &Vertex, from: &Vertex, mode: Transpor
         return None;
     }
     let wi = v.frame.to_world(s.wi);
-    (wi.dot(v.ng) * s.wi.z > 0.0).then_some(wi)
+    (wi.dot(v.ng) * s.wi.z > 0.0).then(|| Step {
+        wi,
+        delta: s.delta,
+        weight: s.f * (s.wi.z.abs() / s.pdf_w),
+    })
+}
+
+/// Samples the direction in which the walk leaves the last vertex of `walk` (reached from the
+/// one before it) and records in that vertex which kind of lobe made it ([`Vertex::mixed`]).
+pub fn scatter(scene: &Scene, walk: &mut [Vertex], mode: TransportMode, rng: &mut Rng) -> Option<Step> {
+    let n = walk.len();
+    let step = sample_step(scene, &walk[n - 1], &walk[n - 2], mode, rng)?;
+    walk[n - 1].delta = step.delta;
+    Some(step)
 }
 
 /// A light vertex x₀: an emitter chosen ∝ power, a point uniformly on it (the position of a
@@ -98,11 +123,8 @@ pub fn extend_light_side(scene: &Scene, path: &mut Vec<Vertex>, n: usize, rng: &
                     _ => return false,
                 }
             }
-            len => {
-                let (v, from) = (path[len - 1], path[len - 2]);
-                sample_direction(scene, &v, &from, TransportMode::Importance, rng)
-                    .and_then(|d| trace_from(scene, &v, d))
-            }
+            len => scatter(scene, path, TransportMode::Importance, rng)
+                .and_then(|step| trace_from(scene, &path[len - 1], step.wi)),
         };
         match next {
             Some(v) => path.push(v),
@@ -124,8 +146,8 @@ pub fn extend_eye_side(scene: &Scene, rev: &mut Vec<Vertex>, n: usize, rng: &mut
     true
 }
 
-/// The next eye-side vertex after `rev`'s last.
-fn step_eye(scene: &Scene, rev: &[Vertex], rng: &mut Rng) -> Option<Vertex> {
+/// The next eye-side vertex after `rev`'s last (whose lobe it records, [`scatter`]).
+fn step_eye(scene: &Scene, rev: &mut [Vertex], rng: &mut Rng) -> Option<Vertex> {
     match rev.len() {
         1 => {
             let cam = &scene.camera;
@@ -133,9 +155,8 @@ fn step_eye(scene: &Scene, rev: &[Vertex], rng: &mut Rng) -> Option<Vertex> {
             trace(scene, &cam.generate_ray(raster))
         }
         len => {
-            let (v, from) = (rev[len - 1], rev[len - 2]);
-            let d = sample_direction(scene, &v, &from, TransportMode::Radiance, rng)?;
-            trace_from(scene, &v, d)
+            let step = scatter(scene, rev, TransportMode::Radiance, rng)?;
+            trace_from(scene, &rev[len - 1], step.wi)
         }
     }
 }
@@ -158,11 +179,17 @@ pub fn extend_eye_to_diffuse(scene: &Scene, rev: &mut Vec<Vertex>, max_vertices:
 }
 
 /// A light-to-eye path from a light prefix `light` (x₀ …) and an eye sub-path `rev` (stored
-/// from the eye), joined by the edge between their last vertices.
+/// from the eye), joined by the edge between their last vertices, which the connection meets
+/// with their non-delta lobes ([`Vertex::as_endpoint`]).
 pub fn join(light: &[Vertex], rev: &[Vertex]) -> Vec<Vertex> {
     let mut path = Vec::with_capacity(light.len() + rev.len());
     path.extend_from_slice(light);
     path.extend(rev.iter().rev());
+    for i in [light.len().wrapping_sub(1), light.len()] {
+        if let Some(v) = path.get_mut(i) {
+            *v = v.as_endpoint();
+        }
+    }
     path
 }
 
@@ -183,7 +210,9 @@ pub fn path_tracing_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit:
     let mut eye_p = 1.0f64;
     let mut path = Vec::with_capacity(max_edges + 2);
     while rev.len() <= max_edges {
-        let Some(z) = step_eye(scene, &rev, rng) else { return };
+        let Some(z) = step_eye(scene, &mut rev, rng) else {
+            return;
+        };
         rev.push(z);
         let m = rev.len();
         let (eye_f_before, eye_p_before) = (eye_f, eye_p);

@@ -46,10 +46,10 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::spawn_ray;
 use crate::params::{Params, Range};
-use crate::path_space::walk::{extend_light_side, join, trace_eye, trace_from};
+use crate::path_space::walk::{extend_light_side, join, scatter, trace_eye, trace_from};
 use crate::path_space::{
-    Vertex, camera_factor, contribution, direction, emitted, geometry, pdf_eye_side, pdf_eye_step, pdf_light_side,
-    pdf_light_step, scattering, scattering_at, visible,
+    Vertex, camera_factor, contribution, emitted, geometry, pdf_eye_side, pdf_eye_step, pdf_light_side, pdf_light_step,
+    scattering, scattering_at, visible,
 };
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
@@ -159,11 +159,11 @@ impl Bdpt {
         let (mut beta, mut q) = (Vec3::ONE, 1.0);
         while sub.vertices.len() < self.params.max_depth as usize + 2 {
             let n = sub.vertices.len();
-            let (v, from) = (sub.vertices[n - 1], sub.vertices[n - 2]);
-            let Some((d, weight)) = step_weight(scene, &v, &from, TransportMode::Radiance, rng) else {
+            let Some(step) = scatter(scene, &mut sub.vertices, TransportMode::Radiance, rng) else {
                 break;
             };
-            beta *= weight;
+            let (v, d) = (sub.vertices[n - 1], step.wi);
+            beta *= step.weight;
             let survive = self.survival(n - 1, beta, Vec3::ONE);
             if survive < 1.0 {
                 if rng.uniform() as f64 >= survive {
@@ -198,11 +198,11 @@ impl Bdpt {
         let (mut beta, mut q) = (Vec3::ONE, 1.0);
         while sub.vertices.len() < self.params.max_depth as usize + 1 {
             let n = sub.vertices.len();
-            let (v, from) = (sub.vertices[n - 1], sub.vertices[n - 2]);
-            let Some((d, weight)) = step_weight(scene, &v, &from, TransportMode::Importance, rng) else {
+            let Some(step) = scatter(scene, &mut sub.vertices, TransportMode::Importance, rng) else {
                 break;
             };
-            beta *= weight;
+            let (v, d) = (sub.vertices[n - 1], step.wi);
+            beta *= step.weight;
             let survive = self.survival(n - 1, beta, Vec3::ONE);
             if survive < 1.0 {
                 if rng.uniform() as f64 >= survive {
@@ -348,7 +348,7 @@ impl Bdpt {
         }
         for s in 1..=y.len() {
             // t = 1: y_{s−1} to the pinhole, splatted.
-            if y[s - 1].connectible() && camera_factor(scene, &y[s - 1]).is_some() {
+            if y[s - 1].can_end_connection() && camera_factor(scene, &y[s - 1]).is_some() {
                 let path = join(&y[..s], &z[..1]);
                 self.connections.fetch_add(1, Relaxed);
                 if let Some((v, r)) = self.weighted_cached(scene, &path, (s, 1), cache, eta)
@@ -361,7 +361,7 @@ impl Bdpt {
             }
             // t ≥ 2: y_{s−1} to z_{t−1} (a surface: not the environment that ends an eye walk).
             for t in 2..=z.len() {
-                if !(y[s - 1].connectible() && z[t - 1].is_surface() && z[t - 1].connectible()) {
+                if !(y[s - 1].can_end_connection() && z[t - 1].is_surface() && z[t - 1].can_end_connection()) {
                     continue;
                 }
                 let path = join(&y[..s], &z[..t]);
@@ -576,24 +576,6 @@ pub(super) fn pixel_pass(scene: &Scene, film: &mut Film, sample: impl Fn(usize) 
     });
 }
 
-/// A BSDF-sampled direction at `v` (reached from `from`) in `mode`, as
-/// [`crate::path_space::walk::sample_direction`] draws it, with its weight f_s |cos θ| / p_ω
-/// (the lobe coefficient at a specular vertex) for roulette.
-fn step_weight(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rng: &mut Rng) -> Option<(Vec3, Vec3)> {
-    let wo = v.frame.to_local(direction(v, from).0);
-    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
-    let s = v.bsdf(scene).sample(wo, u, u_lobe, mode)?;
-    if s.pdf_w <= 0.0 || s.f == Vec3::ZERO {
-        return None;
-    }
-    let wi = v.frame.to_world(s.wi);
-    if wi.dot(v.ng) * s.wi.z <= 0.0 {
-        return None;
-    }
-    let weight = if s.delta { s.f } else { s.f * s.wi.z.abs() / s.pdf_w };
-    Some((wi, weight))
-}
-
 impl Strategy for Bdpt {
     fn handles_point_lights(&self) -> bool {
         true
@@ -604,6 +586,10 @@ impl Strategy for Bdpt {
     }
 
     fn handles_environment(&self) -> bool {
+        true
+    }
+
+    fn handles_mixed_delta(&self) -> bool {
         true
     }
 
@@ -644,12 +630,14 @@ mod tests {
     /// Connections evaluated from the sub-path caches carry the weight and value that
     /// evaluating their whole path gives — f(X), every technique's density, the power
     /// heuristic — for every technique (s, t) of many sample pairs: specular chains
-    /// (cornell-spheres), an environment map on rough conductors and textures (the material
-    /// preview), point, spot and directional lights (the courtyard), Veach's glossy plates.
+    /// (cornell-spheres), smooth plastic (a delta lobe beside a diffuse one: cornell-plastic),
+    /// an environment map on rough conductors and textures (the material preview), point, spot
+    /// and directional lights (the courtyard), Veach's glossy plates.
     #[test]
     fn cached_connections_weigh_as_whole_paths() {
         for file in [
             "scenes/cornell-spheres.toml",
+            "scenes/cornell-plastic.toml",
             "scenes/mitsuba/matpreview-copper.xml",
             "scenes/mitsuba/delta-lights.xml",
             "scenes/mitsuba/veach-mis.xml",
@@ -676,7 +664,7 @@ mod tests {
                 }
                 for s in 1..=y.len() {
                     for t in 1..=z.len() {
-                        if t == 1 || (z[t - 1].is_surface() && z[t - 1].connectible()) {
+                        if t == 1 || (z[t - 1].is_surface() && z[t - 1].can_end_connection()) {
                             paths.push((join(&y[..s], &z[..t]), s, t));
                         }
                     }

@@ -20,8 +20,8 @@
 //! threads and however the samples are split into passes.
 //!
 //! **What it cannot see.** A path whose last scattering vertex before the eye is specular
-//! (E S … : a mirror or glass seen directly) has no connection to the pinhole, so light tracing
-//! leaves it out; scenes with directly visible specular surfaces render darker there (as in
+//! (E S … : a mirror or glass seen directly, a smooth plastic's coating) has no connection to
+//! the pinhole, so light tracing leaves it out (of a plastic it sees the base); scenes with directly visible specular surfaces render darker there (as in
 //! every light tracer; `bdpt` covers them with its other techniques).
 //!
 //! Russian roulette after `rr_depth` scattering events continues with q = min(0.95, Y(A_i) /
@@ -160,6 +160,10 @@ impl Strategy for LightTracing {
     }
 
     fn handles_environment(&self) -> bool {
+        true
+    }
+
+    fn handles_mixed_delta(&self) -> bool {
         true
     }
 

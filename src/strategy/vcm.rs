@@ -180,7 +180,7 @@ impl Vcm {
                     let cache = LightCache::new(scene, &sub.vertices);
                     if merging {
                         for (u, y_u) in sub.vertices.iter().enumerate().skip(1) {
-                            if !(y_u.is_surface() && y_u.connectible()) {
+                            if !(y_u.is_surface() && y_u.can_end_connection()) {
                                 continue;
                             }
                             let alpha = cache.alpha(u) / sub.survival[u] as f32;
@@ -226,7 +226,8 @@ impl Vcm {
         weights: Option<&EyeCache>,
     ) -> DVec3 {
         let (lights, points) = (&pass.paths, &pass.points);
-        let x = z[t - 1];
+        // The merge meets z_{t−1} with its non-delta lobe, whichever the eye walk took there.
+        let x = z[t - 1].as_endpoint();
         let items = points.items();
         let mut sum = DVec3::ZERO;
         let mut found = 0u64;
@@ -244,7 +245,8 @@ impl Vcm {
             }
             let w = if let Some(eye) = weights {
                 let mut path = y[..u].to_vec();
-                path.extend(z[..t].iter().rev());
+                path.push(x);
+                path.extend(z[..t - 1].iter().rev());
                 let (pl, pe) = cached_densities(scene, &path, u, (eye, &pass.caches[lp.path as usize]));
                 match self
                     .bdpt
@@ -280,7 +282,7 @@ impl Vcm {
                     .connect_all(scene, eye, &merge.0.paths[j], caches, Some(eta), rng);
                 let mut own = sample.own.as_dvec3();
                 for t in 2..=z.len() {
-                    if !(z[t - 1].is_surface() && z[t - 1].connectible()) {
+                    if !(z[t - 1].is_surface() && z[t - 1].can_end_connection()) {
                         continue;
                     }
                     let alpha_e = eye_cache.alpha(t, scene.camera.pixel_count() as f64) / eye.survival[t - 1] as f32;
@@ -296,9 +298,14 @@ impl Vcm {
                     if let Some(x0) = z[t - 1].as_light(scene) {
                         own += (alpha_e * emitted(scene, &[x0, z[t - 2]])).as_dvec3();
                     }
-                    if z[t - 1].is_surface() && z[t - 1].connectible() {
+                    // Merging takes the non-delta part of z_{t−1}; where the walk went on
+                    // through a delta lobe (a smooth plastic's coating), the part it carries is
+                    // still to be collected further on.
+                    if z[t - 1].is_surface() && z[t - 1].can_end_connection() {
                         own += self.merge_at(scene, z, t, alpha_e, merge, None);
-                        break;
+                        if !z[t - 1].delta {
+                            break;
+                        }
                     }
                 }
                 Sample {
@@ -320,6 +327,10 @@ impl Strategy for Vcm {
     }
 
     fn handles_environment(&self) -> bool {
+        true
+    }
+
+    fn handles_mixed_delta(&self) -> bool {
         true
     }
 

@@ -6,7 +6,7 @@ use super::*;
 use crate::bsdf::SurfaceKind;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Frame, Ray};
-use crate::path_space::walk::{extend_eye_to_diffuse, sample_direction, trace_from};
+use crate::path_space::walk::{extend_eye_to_diffuse, scatter, trace_from};
 use crate::path_space::{Vertex, direction};
 use crate::photon::{EstimateParams, Photon, PhotonMap};
 use crate::sampling::{Rng, latin_hypercube, sample_concentric_disk};
@@ -83,9 +83,8 @@ impl Importons {
                     }
                     let Some(ip) = importon(scene, &rev) else { continue };
                     caustic.push(ip);
-                    let (xd, from) = (rev[rev.len() - 1], rev[rev.len() - 2]);
-                    let Some(hit) = sample_direction(scene, &xd, &from, TransportMode::Radiance, &mut rng)
-                        .and_then(|w| trace_from(scene, &xd, w))
+                    let Some(hit) = scatter(scene, &mut rev, TransportMode::Radiance, &mut rng)
+                        .and_then(|step| trace_from(scene, &rev[rev.len() - 1], step.wi))
                     else {
                         continue;
                     };

@@ -9,6 +9,14 @@
 //! Hachisuka et al. 2008 trace "specular and glossy" reflections in the ray-tracing pass. A
 //! path that exceeds `max_depth` or leaves the scene makes no visible point.
 //!
+//! **Decision: a delta lobe beside the diffuse one** (Mitsuba's smooth `plastic`). Photons
+//! measure only the non-delta part of a surface's reflection, so stopping there would lose the
+//! coating's mirror image (pbrt-v3's SPPM stops at any surface with a diffuse component and
+//! does lose it). The eye path samples the model instead: when the delta lobe is chosen
+//! (probability P_δ) it goes on through it, as through a mirror; otherwise the visible point
+//! is made here with throughput β / (1 − P_δ). Each part is then estimated without bias in
+//! expectation and one eye path still makes at most one visible point.
+//!
 //! **Direct light.** Emitters seen from the camera or through delta bounces are added where
 //! they are hit. What else reaches the eye path straight from a light depends on
 //! [`DirectLight`]: with `"nee"` every non-delta vertex (the glossy ones passed and the visible
@@ -77,15 +85,29 @@ pub fn trace_eye(scene: &Scene, mut ray: Ray, max_depth: u32, direct: DirectLigh
         if kind == SurfaceKind::Glossy && direct == DirectLight::Photons && !scene.delta_lights.is_empty() {
             out.emitted += beta * all_delta_lights(scene, &here.hit, &bsdf, wo, &mut ());
         }
-        if kind == SurfaceKind::Diffuse {
+        // A surface with a delta lobe beside its diffuse one (smooth plastic): the visible
+        // point takes the diffuse part, the delta lobe the rest, one of the two chosen by
+        // sampling the model (module doc).
+        let p_delta = (kind == SurfaceKind::Diffuse).then(|| bsdf.delta_probability(wo));
+        if p_delta == Some(0.0) {
             out.visible = Some(here);
+            break;
+        }
+        let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+        let sample = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance);
+        if let Some(p_delta) = p_delta
+            && sample.is_some_and(|s| !s.delta)
+        {
+            out.visible = Some(Shading {
+                beta: beta / (1.0 - p_delta),
+                ..here
+            });
             break;
         }
         if depth >= max_depth {
             break;
         }
-        let (u, u_lobe) = (rng.uniform2(), rng.uniform());
-        let Some(s) = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance) else {
+        let Some(s) = sample else {
             break;
         };
         let wi = hit.frame.to_world(s.wi);

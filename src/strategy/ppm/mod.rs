@@ -425,6 +425,10 @@ macro_rules! progressive_strategy {
                 true
             }
 
+            fn handles_mixed_delta(&self) -> bool {
+                true
+            }
+
             fn handles_lens_camera(&self) -> bool {
                 true
             }

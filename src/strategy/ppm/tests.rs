@@ -117,3 +117,65 @@ fn hostile_parameters_are_refused() {
         assert!(err.is_some(), "{kind}: `{text}` must be refused");
     }
 }
+
+/// The eye pass at a smooth plastic (module doc of [`eye`]): over many eye paths through one
+/// point of a plastic sphere, the visible points made there carry, in expectation, the
+/// throughput that arrived (β / (1 − P_δ) with probability 1 − P_δ), and the paths that went on
+/// through the coating carry its reflectance F(θ) k_s to the Lambertian wall they reach next.
+/// Both means must lie within 4 standard errors; dropping the 1 / (1 − P_δ) or stopping at the
+/// plastic fails the first or the second.
+#[test]
+fn a_smooth_plastic_splits_eye_paths_between_its_base_and_its_coating() {
+    use crate::bsdf::{Bsdf, Plastic, fresnel_dielectric};
+    use crate::geometry::Ray;
+    use crate::photon::test_scenes::SceneBuilder;
+    let mut b = SceneBuilder::new();
+    let wall = b.lambertian(Vec3::splat(0.5));
+    b.closed_box(wall, Vec3::ONE);
+    let ks = 0.8;
+    let plastic = b.material(Bsdf::Plastic(Plastic {
+        diffuse_reflectance: Vec3::new(0.2, 0.4, 0.6),
+        specular_reflectance: Vec3::splat(ks),
+        ior: 1.5,
+        nonlinear: false,
+    }));
+    b.sphere(Vec3::splat(0.5), 0.2, plastic);
+    let scene = b.build();
+    // A ray from inside the box to a point of the sphere 50° off its normal there.
+    let hit_dir = Vec3::new(50f32.to_radians().sin(), 0.0, -50f32.to_radians().cos());
+    let target = Vec3::splat(0.5) + 0.2 * hit_dir;
+    let origin = Vec3::new(0.5, 0.5, 0.05);
+    let ray = Ray::new(origin, (target - origin).normalize());
+    let first = scene.intersect(&ray).unwrap();
+    assert_eq!(first.material, plastic);
+    let mu = first.frame.to_local(-ray.d).z.abs();
+    let n = 200_000;
+    let (mut base, mut coat) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for i in 0..n {
+        let mut rng = Rng::for_task(7, [0, i as u64, 0]);
+        let path = trace_eye(&scene, ray, 4, DirectLight::Photons, &mut rng);
+        let v = path.visible.map(|v| (v.hit.material, v.beta.x as f64));
+        base.push(match v {
+            Some((m, beta)) if m == plastic => beta,
+            _ => 0.0,
+        });
+        coat.push(match v {
+            Some((m, beta)) if m == wall => beta,
+            _ => 0.0,
+        });
+    }
+    let mean_se = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
+        (m, (var / v.len() as f64).sqrt())
+    };
+    let (m, se) = mean_se(&base);
+    assert!((m - 1.0).abs() < 4.0 * se, "base: {m} ± {se}, expected 1");
+    let expected = f64::from(fresnel_dielectric(mu, 1.5) * ks);
+    let (m, se) = mean_se(&coat);
+    assert!(se < 0.05 * expected, "coating too noisy to judge: {m} ± {se}");
+    assert!(
+        (m - expected).abs() < 4.0 * se,
+        "coating: {m} ± {se}, expected F k_s = {expected}"
+    );
+}
