@@ -197,6 +197,7 @@ fn strategies_that_render_delta_lights_agree_with_path() {
         ("ppg", "max_depth = 64", 64),
         ("bdpt", "max_depth = 64", 16),
         ("light", "max_depth = 64", 16),
+        ("mlt", "max_depth = 64\nchains = 1024", 4),
     ] {
         assert_agrees(kind, image_mean(&scene, kind, params, spp), path);
     }
@@ -298,12 +299,12 @@ fn strategies_that_cannot_reach_delta_lights_refuse_the_scene() {
     for (scene, able, what) in [
         (
             &room,
-            [&eye_paths[..], &["light", "bdpt", "vcm"]].concat(),
+            [&eye_paths[..], &["light", "bdpt", "vcm", "mlt"]].concat(),
             "point or spot",
         ),
         (
             &sun,
-            [&eye_paths[..], &["light", "bdpt", "vcm"]].concat(),
+            [&eye_paths[..], &["light", "bdpt", "vcm", "mlt"]].concat(),
             "directional",
         ),
     ] {

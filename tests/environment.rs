@@ -203,7 +203,10 @@ fn strategies_without_environment_light_refuse_the_scene() {
     for kind in strategy::kinds() {
         let s: Box<dyn Strategy> = strategy::build(kind, toml::Table::new()).unwrap();
         match (kind, strategy::check_scene(&*s, &scene)) {
-            ("path" | "ppg" | "photon_guided" | "photon_map" | "ppm" | "sppm" | "light" | "bdpt" | "vcm", r) => {
+            (
+                "path" | "ppg" | "photon_guided" | "photon_map" | "ppm" | "sppm" | "light" | "bdpt" | "vcm" | "mlt",
+                r,
+            ) => {
                 assert!(r.is_ok(), "{kind}: {r:?}")
             }
             (_, Ok(())) => panic!("{kind} accepted an environment it does not render"),
@@ -435,6 +438,7 @@ file = "sky.exr"
         ("bdpt", "max_depth = 4", 64),
         ("light", "max_depth = 4", 64),
         ("vcm", "max_depth = 4\nmode = \"bpt\"", 64),
+        ("mlt", "max_depth = 4", 4),
     ] {
         assert_agrees(kind, image_mean(&scene, kind, params, spp), path);
     }

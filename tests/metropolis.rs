@@ -42,9 +42,11 @@ fn block_of(x: usize, y: usize) -> usize {
     (y * BLOCKS / H as usize) * BLOCKS + x * BLOCKS / W as usize
 }
 
-/// Block means of path tracing, from 8 independent 96-spp renders.
+/// Block means of path tracing, from 8 independent 96-spp renders (of bidirectional path
+/// tracing where point, spot or directional lights make caustics no eye walk reaches).
 fn path_blocks(scene: &Scene) -> Vec<(f64, f64)> {
-    let path = strategy::build("path", toml::Table::new()).unwrap();
+    let kind = if scene.delta_lights.is_empty() { "path" } else { "bdpt" };
+    let path = strategy::build(kind, toml::Table::new()).unwrap();
     let runs: Vec<[f64; BLOCKS * BLOCKS]> = (0..8)
         .map(|seed| {
             let mut film = Film::new(W, H);
@@ -151,20 +153,28 @@ fn mean_se_n<const N: usize>(runs: &[[f64; N]]) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// ∫ h f_Y dμ of each feature by path tracing in path space (the MIS samples of B_eye),
-/// with standard errors from 32 batches.
+/// ∫ h f_Y dμ of each feature by path tracing in path space (the MIS samples of B_eye; with
+/// point, spot or directional lights bidirectional samples, as B_eye then takes), with
+/// standard errors from 32 batches.
 fn path_features(scene: &Scene) -> Vec<(f64, f64)> {
+    use photon_bench::path_space::bidirectional::bidirectional_sample;
+    use photon_bench::path_space::walk::path_tracing_sample;
     let batches: Vec<[f64; FEATURES]> = (0..32u64)
         .map(|batch| {
             let n = 16_000u64;
             let mut sum = [0.0; FEATURES];
+            let mut add = |p: &[Vertex], c: Vec3| {
+                for f in features(p) {
+                    sum[f] += luminance(c) as f64;
+                }
+            };
             for i in 0..n {
                 let mut rng = Rng::for_task(5, [batch, i, 0]);
-                photon_bench::path_space::walk::path_tracing_sample(scene, 17, &mut rng, &mut |p, c| {
-                    for f in features(p) {
-                        sum[f] += luminance(c) as f64;
-                    }
-                });
+                if scene.delta_lights.is_empty() {
+                    path_tracing_sample(scene, 17, &mut rng, &mut add);
+                } else {
+                    bidirectional_sample(scene, 17, &mut rng, &mut add);
+                }
             }
             sum.map(|s| s / n as f64)
         })
@@ -206,14 +216,14 @@ fn z_scores(
 /// one degree of freedom per estimate: a small bias spread over many estimates (a wrong
 /// Jacobian in one proposal) fails the joint test before any single z gets large.
 fn check(name: &str, proposals: ProposalMix) {
-    check_on(name, scene(), proposals);
+    check_on(name, &scene(), proposals);
 }
 
 /// [`check`] on another scene (at W × H).
-fn check_on(name: &str, scene: Scene, proposals: ProposalMix) {
-    let (blocks, feats, b_rel, tally) = chain_estimates(&scene, proposals, 40_000);
-    let mut zs = z_scores(name, "block", &blocks, &path_blocks(&scene), b_rel, &tally);
-    zs.extend(z_scores(name, "feature", &feats, &path_features(&scene), b_rel, &tally));
+fn check_on(name: &str, scene: &Scene, proposals: ProposalMix) {
+    let (blocks, feats, b_rel, tally) = chain_estimates(scene, proposals, 40_000);
+    let mut zs = z_scores(name, "block", &blocks, &path_blocks(scene), b_rel, &tally);
+    zs.extend(z_scores(name, "feature", &feats, &path_features(scene), b_rel, &tally));
     let chi2: f64 = zs.iter().map(|z| z * z).sum();
     let p = chi2_upper_tail(chi2, zs.len());
     eprintln!(
@@ -292,7 +302,7 @@ fn box_scene() -> Scene {
 /// MC on box, where most of its candidates are L S D S E paths through the mirror wall.
 #[test]
 fn mc_with_bd_samples_f_eye_on_box() {
-    check_on("mc+bd, box", box_scene(), mix(|m| m.mc = 0.5));
+    check_on("mc+bd, box", &box_scene(), mix(|m| m.mc = 0.5));
 }
 
 /// MC on the open box with a mirror floor ([`mirror_box`]) at W × H, its light widened to
@@ -318,7 +328,7 @@ fn mc_with_bd_samples_f_eye_on_mirror_box() {
     .0;
     let c = &scene.camera;
     scene.camera = Camera::new(c.eye, c.look_at, c.up, c.fov_y_deg, W, H);
-    check_on("mc+bd, mirror box", scene, mix(|m| m.mc = 0.5));
+    check_on("mc+bd, mirror box", &scene, mix(|m| m.mc = 0.5));
 }
 
 #[test]
@@ -1111,4 +1121,109 @@ fn path_tracing_samples_carry_the_weight_of_their_whole_path() {
         checked > 4000 && longest >= 10,
         "{checked} paths, longest {longest} edges"
     );
+}
+
+/// Every kind of light at once, at W × H: an environment map (a sky gradient with a bright sun
+/// texel), a directional light, a point light and a spot light over a floor and a back wall,
+/// with a mirror sphere for the specular chains of CP, PM and MC. x₀ is then a direction (the
+/// environment, the directional light) or a point without area (point, spot) as often as a
+/// point on a surface (Veach 1997, §8.3.3 and §10.3.5; module doc of `path_space`).
+fn light_zoo(dir: &std::path::Path) -> Scene {
+    light_zoo_with(dir, &["env", "directional", "point", "spot"])
+}
+
+fn light_zoo_with(dir: &std::path::Path, lights: &[&str]) -> Scene {
+    let (w, h) = (32u32, 16u32);
+    let pixels = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let sky = Vec3::new(0.2, 0.3, 0.5) * (1.0 - y as f32 / h as f32);
+            sky + if (x, y) == (7, 4) { Vec3::splat(8.0) } else { Vec3::ZERO }
+        })
+        .collect();
+    let sky = photon_bench::film::Image {
+        width: w,
+        height: h,
+        pixels,
+    };
+    photon_bench::film::write_exr(&sky, &dir.join("sky.exr")).unwrap();
+    let mut text = format!(
+        r#"[camera]
+eye = [0, 1.2, 3]
+look_at = [0, 0.3, 0]
+fov_y = 45
+resolution = [{W}, {H}]
+
+[materials.floor]
+type = "diffuse"
+reflectance = [0.6, 0.55, 0.5]
+[materials.wall]
+type = "diffuse"
+reflectance = [0.3, 0.4, 0.6]
+[materials.chrome]
+type = "mirror"
+reflectance = [0.9, 0.9, 0.9]
+
+[[shapes]]
+type = "quad"
+material = "floor"
+center = [0, 0, 0]
+size = [4, 4]
+facing = "+y"
+[[shapes]]
+type = "quad"
+material = "wall"
+center = [0, 1, -1.5]
+size = [4, 2]
+facing = "+z"
+[[shapes]]
+type = "quad"
+material = "floor"
+center = [-1.5, 1, 0]
+size = [2, 4]
+facing = "+x"
+[[shapes]]
+type = "quad"
+material = "floor"
+center = [1.5, 1, 0]
+size = [2, 4]
+facing = "-x"
+[[shapes]]
+type = "sphere"
+material = "chrome"
+center = [0.5, 0.4, -0.3]
+radius = 0.4
+
+"#
+    );
+    for light in lights {
+        text += match *light {
+            "env" => "[environment]\ntype = \"envmap\"\nfile = \"sky.exr\"\ntransform = { rotate_y = 30 }\n",
+            "directional" => {
+                "[[lights]]\ntype = \"directional\"\ndirection = [0.5, -1, -0.3]\nirradiance = [1.5, 1.2, 0.9]\n"
+            }
+            "point" => "[[lights]]\ntype = \"point\"\nposition = [-0.8, 1.2, 0.6]\nintensity = [1.2, 1.2, 1.2]\n",
+            "spot" => {
+                "[[lights]]\ntype = \"spot\"\nposition = [0.8, 1.8, 1.0]\ntarget = [0.0, 0.0, -0.5]\nintensity = [3, 2.5, 2]\ncutoff_angle = 30\n"
+            }
+            other => panic!("{other}"),
+        };
+    }
+    let path = dir.join("zoo.toml");
+    std::fs::write(&path, text).unwrap();
+    load_scene(&path).unwrap()
+}
+
+/// The chain over paths from every kind of light: BD alone and each perturbation with BD match
+/// path tracing block by block and feature by feature (the joint χ² of [`check_on`]).
+#[test]
+fn every_proposal_samples_f_eye_under_every_kind_of_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = light_zoo(dir.path());
+    check_on("bd, light zoo", &scene, mix(|_| {}));
+    check_on("ls+bd, light zoo", &scene, mix(|m| m.ls = 0.5));
+    check_on("lp+bd, light zoo", &scene, mix(|m| m.lp = 0.5));
+    check_on("cp+bd, light zoo", &scene, mix(|m| m.cp = 0.5));
+    check_on("pm+bd, light zoo", &scene, mix(|m| m.pm = 0.5));
+    check_on("mc+bd, light zoo", &scene, mix(|m| m.mc = 0.5));
 }

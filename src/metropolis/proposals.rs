@@ -13,7 +13,8 @@ use super::{MetropolisParams, UserPathInfo};
 use crate::bsdf::TransportMode;
 use crate::geometry::Frame;
 use crate::path_space::walk::{
-    extend_eye_side, extend_eye_to_diffuse, extend_light_side, join, raster_of, scatter, trace, trace_from,
+    extend_eye_side, extend_eye_to_diffuse, extend_light_side, join, raster_of, scatter, trace, trace_eye_from,
+    trace_from,
 };
 use crate::path_space::{
     Vertex, camera_factor, direction, first_diffuse_from_eye, pdf_eye_side, pdf_light_side, solid_angle_to_area,
@@ -73,9 +74,10 @@ fn p_delete_edges(kd: usize, k: usize) -> f64 {
 
 /// May BD delete the edges between x_l and x_m (l = −1: x₀ too)? The kept ends must be
 /// non-specular, so that the regenerated vertices differ from the old ones almost surely and
-/// the deleted range is determined by X and Y alone.
+/// the deleted range is determined by X and Y alone. Keeping x₀ on the eye side (m = 0) makes
+/// it an interior vertex of the new path: only a point on an area light can be one.
 fn deletion_allowed(path: &[Vertex], l: isize, m: usize) -> bool {
-    (l < 0 || path[l as usize].connectible()) && path[m].connectible()
+    (l < 0 || path[l as usize].connectible()) && path[m].connectible() && (m > 0 || path[0].on_surface())
 }
 
 /// Number of positions l where `kd` edges may be deleted from `path`.
@@ -208,7 +210,8 @@ pub fn bidirectional(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<(Vec<
         return Some((rev.into_iter().rev().collect(), l, k + 1 - m));
     }
     let (a, b) = (light.last()?, rev.last()?);
-    if !a.connectible() || !b.connectible() || !visible(ctx.scene, a, b) {
+    // An eye walk that left the scene ends at x₀ on the environment, never at a connection.
+    if !a.connectible() || !b.connectible() || b.is_at_infinity() || !visible(ctx.scene, a, b) {
         return None;
     }
     Some((join(&light, &rev), l, k + 1 - m))
@@ -231,7 +234,7 @@ pub fn up_density(ctx: &Context, path: &[Vertex], d: usize) -> f64 {
 
 fn up_density_one(ctx: &Context, u: &UserPathInfo, path: &[Vertex], d: usize) -> f64 {
     let segments = u.points.len() - 1;
-    if d != segments + 1 {
+    if d != segments + 1 || path[0].is_at_infinity() {
         return 0.0;
     }
     let mut density = 1.0f64;
@@ -301,8 +304,12 @@ fn reflects_at(path: &[Vertex], i: usize) -> bool {
 
 /// UP: keeps x₀ and the eye sub-path E S* D, replaces the vertices between by a perturbed copy
 /// of a user path chosen uniformly (cones aimed from each new vertex at the next user point;
-/// specular user points followed as bounces), joined to x_d by a connection.
+/// specular user points followed as bounces), joined to x_d by a connection. Not from light
+/// arriving from infinitely far away, which has no point to aim a cone from.
 pub fn user_path(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<(Vec<Vertex>, usize)> {
+    if x[0].is_at_infinity() {
+        return None;
+    }
     let d = first_diffuse_from_eye(x)?;
     let u = &ctx.user_paths[rng.below(ctx.user_paths.len() as u32) as usize];
     let segments = u.points.len() - 1;
@@ -461,6 +468,11 @@ pub fn caustic_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Optio
         return None;
     }
     let j = (0..k - 1).rev().find(|&i| !x[i].delta)?;
+    // From light arriving from infinitely far away there is no point to turn a direction at
+    // (the reverse move is impossible too: CP keeps x₀ … x_j).
+    if x[j].is_at_infinity() {
+        return None;
+    }
     let axis = direction(&x[j], &x[j + 1]).0;
     let p = &ctx.params;
     let (theta, phi) = perturbation(rng, p.caustic_theta1, p.caustic_theta2);
@@ -614,11 +626,21 @@ pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> O
             let local = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
             Frame::from_normal(axis).to_world(local)
         };
-        let next = trace_from(scene, &v, dir)?;
+        // A chain may end on the environment: x₀ is then where the ray leaves the scene.
+        let next = trace_eye_from(scene, &v, dir)?;
         i -= 1;
         if i == 0 {
+            // The reverse move re-traces to X's x₀: impossible from a point, spot or
+            // directional light, which no ray hits (without this check such paths would move
+            // to whatever light the ray finds, and never back).
+            if !x[0].is_hittable_light() {
+                return None;
+            }
             y[0] = next.as_light(scene)?;
             break 0;
+        }
+        if !next.is_surface() {
+            return None;
         }
         y[i] = next;
     };

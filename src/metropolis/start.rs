@@ -7,6 +7,7 @@ use super::params::MetropolisParams;
 use crate::color::luminance;
 use crate::error::Result;
 use crate::path_space::Vertex;
+use crate::path_space::bidirectional::bidirectional_sample;
 use crate::path_space::walk::{path_tracing_sample, trace};
 use crate::sampling::Rng;
 use crate::scene::Scene;
@@ -104,7 +105,7 @@ pub fn estimate_b(scene: &Scene, params: &MetropolisParams, seed: u64) -> Result
                 let mut rng = Rng::for_task(seed, [crate::sampling::stream::B_EYE, i, 0]);
                 let mut total = DVec3::ZERO;
                 let mut ordinal = 0u32;
-                path_tracing_sample(scene, max_edges, &mut rng, &mut |_, c| {
+                b_sample(scene, max_edges, &mut rng, &mut |_, c| {
                     total += c.as_dvec3();
                     let y = luminance(c) as f64;
                     if y > 0.0 {
@@ -160,12 +161,27 @@ pub fn estimate_b(scene: &Scene, params: &MetropolisParams, seed: u64) -> Result
     Ok((estimate, starts))
 }
 
+/// One sample of B and of the first states. **Decision**: path tracing
+/// ([`path_tracing_sample`]) where it reaches every path the chains can, i.e. where every light
+/// can be hit by an eye walk (area lights, the environment); with point, spot or directional
+/// lights, whose caustics (a specular first bounce) no eye walk and no next-event estimate
+/// reaches while the chains' bidirectional mutation does, a bidirectional sample of every
+/// technique ([`bidirectional_sample`], Veach's own estimate of B). Without that, B would
+/// miss those paths' share and every pixel of the chains' image would be too dark by it.
+fn b_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit: &mut impl FnMut(&[Vertex], Vec3)) {
+    if scene.delta_lights.is_empty() {
+        path_tracing_sample(scene, max_edges, rng, emit);
+    } else {
+        bidirectional_sample(scene, max_edges, rng, emit);
+    }
+}
+
 /// Re-traces path-tracing sample `w.sample` and returns its `w.ordinal`-th path.
 fn regenerate(scene: &Scene, max_edges: usize, seed: u64, w: Weighted) -> Vec<Vertex> {
     let mut rng = Rng::for_task(seed, [crate::sampling::stream::B_EYE, w.sample, 0]);
     let mut ordinal = 0u32;
     let mut found = Vec::new();
-    path_tracing_sample(scene, max_edges, &mut rng, &mut |path, _| {
+    b_sample(scene, max_edges, &mut rng, &mut |path, _| {
         if ordinal == w.ordinal {
             found = path.to_vec();
         }

@@ -42,6 +42,7 @@
 //! What does not live here: the Markov chain and its proposals ([`crate::metropolis`]) and any
 //! strategy; this is the measure-theoretic layer both read.
 
+pub mod bidirectional;
 pub mod walk;
 
 use crate::bsdf::{Bsdf, TransportMode};
@@ -227,6 +228,13 @@ impl Vertex {
     #[inline]
     pub fn is_surface(&self) -> bool {
         self.kind == VertexKind::Surface
+    }
+
+    /// A point of a surface, with its material: a scattering vertex or a point on an area light
+    /// (which a bidirectional mutation may keep as an interior vertex of a new path).
+    #[inline]
+    pub fn on_surface(&self) -> bool {
+        matches!(self.kind, VertexKind::Surface | VertexKind::Light(_))
     }
 
     /// Can a deterministic edge (a connection) end here in this path? Not where the path

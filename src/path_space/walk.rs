@@ -146,27 +146,40 @@ pub fn extend_eye_side(scene: &Scene, rev: &mut Vec<Vertex>, n: usize, rng: &mut
     true
 }
 
-/// The next eye-side vertex after `rev`'s last (whose lobe it records, [`scatter`]).
+/// The next eye-side vertex after `rev`'s last (whose lobe it records, [`scatter`]): a surface,
+/// or x₀ on the environment where the walk leaves a scene that has one (the walk ends there).
 fn step_eye(scene: &Scene, rev: &mut [Vertex], rng: &mut Rng) -> Option<Vertex> {
     match rev.len() {
         1 => {
             let cam = &scene.camera;
             let raster = rng.uniform2() * Vec2::new(cam.width as f32, cam.height as f32);
-            trace(scene, &cam.generate_ray(raster))
+            trace_eye(scene, &cam.generate_ray(raster))
         }
-        len => {
+        len if rev[len - 1].on_surface() => {
             let step = scatter(scene, rev, TransportMode::Radiance, rng)?;
-            trace_from(scene, &rev[len - 1], step.wi)
+            trace_eye_from(scene, &rev[len - 1], step.wi)
         }
+        _ => None,
     }
+}
+
+/// [`trace_eye`] leaving vertex `v` in unit direction `d`.
+#[inline]
+pub fn trace_eye_from(scene: &Scene, v: &Vertex, d: Vec3) -> Option<Vertex> {
+    trace_eye(scene, &spawn_ray(v.p, v.ng, d))
 }
 
 /// Extends the eye sub-path `rev` until its last vertex is non-specular (E S* D), keeping at
 /// most `max_vertices` vertices. False on escape, absorption or when the limit is hit first.
 pub fn extend_eye_to_diffuse(scene: &Scene, rev: &mut Vec<Vertex>, max_vertices: usize, rng: &mut Rng) -> bool {
     loop {
-        if rev.len() > 1 && !rev[rev.len() - 1].delta {
-            return true;
+        if let [_, .., last] = rev.as_slice() {
+            if !last.on_surface() {
+                return false;
+            }
+            if !last.delta {
+                return true;
+            }
         }
         if rev.len() >= max_vertices {
             return false;
@@ -236,7 +249,8 @@ pub fn path_tracing_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit:
             weigh(scene, &path, f, eye_p_before, false, emit);
         }
         // Next-event estimation from z: the path of m edges, x₀ = y on a light.
-        if !z.delta
+        if z.is_surface()
+            && !z.delta
             && m <= max_edges
             && let Some(y) = sample_light_vertex(scene, rng)
             && visible(scene, &y, &z)

@@ -76,6 +76,18 @@ impl Declared for Mlt {
 }
 
 impl Strategy for Mlt {
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
+    fn handles_point_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_directional_lights(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

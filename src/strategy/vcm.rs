@@ -32,11 +32,12 @@
 //! PPM mode: the eye path stops at its first non-specular vertex and merges there, emitters
 //! count when seen directly or through specular bounces, no weights.
 
-use super::bdpt::{Bdpt, BdptParams, EyeCache, LightCache, Sample, SubPath, Technique, cached_densities, pixel_pass};
+use super::bdpt::{Bdpt, BdptParams, Sample, pixel_pass};
 use super::{Declared, Strategy};
 use crate::error::Result;
 use crate::film::Film;
 use crate::params::{Params, Range};
+use crate::path_space::bidirectional::{EyeCache, LightCache, SubPath, Technique, cached_densities, mis_weight_from};
 use crate::path_space::{Vertex, camera_factor, emitted, geometry, pdf_eye_side, scattering};
 use crate::photon::{KdPoint, KdTree};
 use crate::sampling::{Rng, stream};
@@ -248,10 +249,7 @@ impl Vcm {
                 path.push(x);
                 path.extend(z[..t - 1].iter().rev());
                 let (pl, pe) = cached_densities(scene, &path, u, (eye, &pass.caches[lp.path as usize]));
-                match self
-                    .bdpt
-                    .mis_weight_from(&path, &pl, &pe, Technique::Merge(u), Some(eta))
-                {
+                match mis_weight_from(&path, &pl, &pe, Technique::Merge(u), Some(eta), self.bdpt.max_edges()) {
                     Some((p, sum_sq)) => p * p / sum_sq,
                     None => return,
                 }
@@ -402,7 +400,7 @@ mod tests {
     /// evaluation, on specular chains (cornell-spheres) and under an environment map.
     #[test]
     fn cached_alphas_equal_whole_path_alphas() {
-        use super::super::bdpt::{EyeCache, LightCache};
+        use crate::path_space::bidirectional::{EyeCache, LightCache};
         for file in ["scenes/cornell-spheres.toml", "scenes/mitsuba/matpreview-copper.xml"] {
             let scene = crate::scene::load_scene(std::path::Path::new(file)).unwrap();
             let vcm = <Vcm as Declared>::new(VcmParams::default()).unwrap();
