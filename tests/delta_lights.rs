@@ -299,12 +299,12 @@ fn strategies_that_cannot_reach_delta_lights_refuse_the_scene() {
     for (scene, able, what) in [
         (
             &room,
-            [&eye_paths[..], &["light", "bdpt", "vcm", "mlt"]].concat(),
+            [&eye_paths[..], &["light", "bdpt", "vcm", "mlt", "mps"]].concat(),
             "point or spot",
         ),
         (
             &sun,
-            [&eye_paths[..], &["light", "bdpt", "vcm", "mlt"]].concat(),
+            [&eye_paths[..], &["light", "bdpt", "vcm", "mlt", "mps"]].concat(),
             "directional",
         ),
     ] {

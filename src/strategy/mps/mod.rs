@@ -254,6 +254,18 @@ impl Declared for Mps {
 }
 
 impl Strategy for Mps {
+    fn handles_environment(&self) -> bool {
+        true
+    }
+
+    fn handles_point_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_directional_lights(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

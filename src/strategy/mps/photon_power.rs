@@ -102,8 +102,10 @@ impl Deposit {
         })
     }
 
+    /// Same storage point, previous vertex and incoming direction (the direction tells apart
+    /// light from infinitely far away, whose vertex has no position).
     pub(super) fn same_photon(&self, o: &Deposit) -> bool {
-        self.map == o.map && self.p == o.p && self.from == o.from
+        self.map == o.map && self.p == o.p && self.from == o.from && self.wi == o.wi
     }
 
     pub(super) fn add(&mut self, weight: f32) {
@@ -120,7 +122,7 @@ impl Deposit {
 pub(super) fn merge_repeated_paths(mut deposits: Vec<Deposit>) -> Vec<Deposit> {
     let key = |d: &Deposit| {
         let b = |v: Vec3| v.to_array().map(f32::to_bits);
-        (d.map as u8, b(d.p), b(d.from))
+        (d.map as u8, b(d.p), b(d.from), b(d.wi))
     };
     // Stable: equal keys stay in chain order, so sums do not depend on the thread count.
     deposits.sort_by_key(key);
