@@ -4,7 +4,7 @@
 
 mod agreement;
 
-use agreement::{assert_agrees, assert_refused, image_mean, load_text, render_image};
+use agreement::{assert_agrees, assert_refused, image_mean, load_text, region_mean, render_image};
 use glam::Vec3;
 use photon_bench::film::{Image, write_exr};
 use photon_bench::scene::Scene;
@@ -100,18 +100,7 @@ fn path_space_strategies_under_a_constant_sky_reproduce_albedo_times_sky() {
             .map(|seed| render_image(&scene, kind, "max_depth = 4", spp, seed))
             .collect();
         for (region, pixels, expected) in [("sphere", &centre, 0.5 * 6.0), ("sky", &corners, 6.0)] {
-            let per_seed: Vec<f64> = images
-                .iter()
-                .map(|img| {
-                    let sum: f64 = pixels
-                        .iter()
-                        .map(|&(x, y)| f64::from(img.get(x, y).element_sum()))
-                        .sum();
-                    sum / pixels.len() as f64
-                })
-                .collect();
-            let m = per_seed.iter().sum::<f64>() / 6.0;
-            let se = (per_seed.iter().map(|v| (v - m).powi(2)).sum::<f64>() / 30.0).sqrt();
+            let (m, se) = region_mean(&images, pixels);
             assert!(se < 0.03 * expected, "{kind} {region}: too noisy to judge ({m} ± {se})");
             assert!(
                 (m - expected).abs() < 4.0 * se + slack * expected,

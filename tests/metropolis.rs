@@ -1227,3 +1227,37 @@ fn every_proposal_samples_f_eye_under_every_kind_of_light() {
     check_on("pm+bd, light zoo", &scene, mix(|m| m.pm = 0.5));
     check_on("mc+bd, light zoo", &scene, mix(|m| m.mc = 0.5));
 }
+
+/// cornell-plastic at W × H: two smooth plastic spheres, a delta lobe (the coating) beside a
+/// diffuse one on the same surface. A vertex there is specular in the paths that took the
+/// coating and diffuse in the others (`path_space`'s module doc): BD samples the lobe, LP, CP
+/// and MC keep the lobe X took where they re-trace, LS and PM leave paths alone whose chains
+/// they could not make. Each proposal with BD matches path tracing as above.
+#[test]
+fn every_proposal_samples_f_eye_on_smooth_plastic() {
+    // Dark bases, so that the coatings' reflections carry the spheres' blocks.
+    let file = std::path::Path::new("scenes/cornell-plastic.toml");
+    let text = std::fs::read_to_string(file).unwrap();
+    let dark = text
+        .replace(
+            "diffuse_reflectance = [0.1, 0.27, 0.36]",
+            "diffuse_reflectance = [0.01, 0.02, 0.03]",
+        )
+        .replace(
+            "diffuse_reflectance = [0.8, 0.8, 0.8]",
+            "diffuse_reflectance = [0.02, 0.02, 0.02]",
+        )
+        .replace("radius = 0.1", "radius = 0.13");
+    assert_eq!(dark.matches("0.02, 0.02").count(), 1);
+    let mut scene = photon_bench::scene::load::load_scene_bytes(file, dark.as_bytes())
+        .unwrap()
+        .0;
+    let c = &scene.camera;
+    scene.camera = Camera::new(c.eye, c.look_at, c.up, c.fov_y_deg, W, H);
+    check_on("bd, plastic", &scene, mix(|_| {}));
+    check_on("ls+bd, plastic", &scene, mix(|m| m.ls = 0.5));
+    check_on("lp+bd, plastic", &scene, mix(|m| m.lp = 0.5));
+    check_on("cp+bd, plastic", &scene, mix(|m| m.cp = 0.5));
+    check_on("pm+bd, plastic", &scene, mix(|m| m.pm = 0.5));
+    check_on("mc+bd, plastic", &scene, mix(|m| m.mc = 0.5));
+}

@@ -99,14 +99,10 @@ fn mps_matches_path_tracing_in_mean() {
     assert!((m / reference - 1.0).abs() < 0.04, "mps {m} vs path {reference}");
 }
 
-#[test]
-fn global_map_holds_the_flux_photon_tracing_stores() {
-    let scene = scaled_scene("scenes/cornell-empty.toml", 1.0, 32, 24);
-    let mut s = mps("importon");
-    s.prepare(&scene, 9).unwrap();
-    let stored = counter(s.as_ref(), "global_power_y");
+/// The luminance flux standard photon tracing (200 000 paths) stores in its global map.
+fn traced_global_flux(scene: &Scene) -> f64 {
     let traced = trace_photons(
-        &scene,
+        scene,
         &TraceParams {
             photons: 200_000,
             max_depth: 16,
@@ -115,7 +111,16 @@ fn global_map_holds_the_flux_photon_tracing_stores() {
         },
         9,
     );
-    let reference: f64 = traced.global.iter().map(|p| luminance(p.power()) as f64).sum();
+    traced.global.iter().map(|p| luminance(p.power()) as f64).sum()
+}
+
+#[test]
+fn global_map_holds_the_flux_photon_tracing_stores() {
+    let scene = scaled_scene("scenes/cornell-empty.toml", 1.0, 32, 24);
+    let mut s = mps("importon");
+    s.prepare(&scene, 9).unwrap();
+    let stored = counter(s.as_ref(), "global_power_y");
+    let reference = traced_global_flux(&scene);
     eprintln!("power {stored} {reference}");
     assert!(
         (stored / reference - 1.0).abs() < 0.05,
@@ -154,17 +159,7 @@ fn mps_renders_delta_and_environment_light() {
     let mut s = mps("importon");
     let m = mean_luminance(&room, s.as_mut(), 2);
     let stored = counter(s.as_ref(), "global_power_y");
-    let traced = trace_photons(
-        &room,
-        &TraceParams {
-            photons: 200_000,
-            max_depth: 16,
-            store_direct: true,
-            caustics: CausticStorage::Both,
-        },
-        9,
-    );
-    let reference: f64 = traced.global.iter().map(|p| luminance(p.power()) as f64).sum();
+    let reference = traced_global_flux(&room);
     assert!(
         (stored / reference - 1.0).abs() < 0.05,
         "MPS global map {stored} vs photon tracing {reference}"

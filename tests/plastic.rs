@@ -3,7 +3,7 @@
 
 mod agreement;
 
-use agreement::{assert_agrees, image_mean, render_image};
+use agreement::{assert_agrees, image_mean, region_mean, render_image};
 use photon_bench::film::Image;
 use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_with_stats;
@@ -67,7 +67,10 @@ fn strategies_that_class_vertices_by_surface_refuse_smooth_plastic() {
     for kind in strategy::kinds() {
         let s: Box<dyn Strategy> = strategy::build(kind, toml::Table::new()).unwrap();
         match (kind, strategy::check_scene(&*s, &scene)) {
-            ("path" | "ppg" | "photon_guided" | "photon_map" | "light" | "bdpt" | "vcm" | "ppm" | "sppm", r) => {
+            (
+                "path" | "ppg" | "photon_guided" | "photon_map" | "light" | "bdpt" | "vcm" | "ppm" | "sppm" | "mlt",
+                r,
+            ) => {
                 assert!(r.is_ok(), "{kind}: {r:?}")
             }
             (_, Ok(())) => panic!("{kind} accepted a smooth plastic it does not render"),
@@ -125,25 +128,7 @@ fn sees_plastic(scene: &Scene, block: &[(u32, u32)]) -> bool {
 
 /// Per block of [`blocks`], the mean of r + g + b over the images (seeds) and its standard error.
 fn block_means(scene: &Scene, images: &[Image]) -> Vec<(f64, f64)> {
-    blocks(scene)
-        .iter()
-        .map(|pixels| {
-            let per_seed: Vec<f64> = images
-                .iter()
-                .map(|img| {
-                    let sum: f64 = pixels
-                        .iter()
-                        .map(|&(x, y)| f64::from(img.get(x, y).element_sum()))
-                        .sum();
-                    sum / pixels.len() as f64
-                })
-                .collect();
-            let n = per_seed.len() as f64;
-            let m = per_seed.iter().sum::<f64>() / n;
-            let var = per_seed.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0);
-            (m, (var / n).sqrt())
-        })
-        .collect()
+    blocks(scene).iter().map(|pixels| region_mean(images, pixels)).collect()
 }
 
 /// Block means of `kind` with `params` at `spp`, over 6 seeds.

@@ -364,7 +364,7 @@ fn ls_density(scene: &Scene, path: &[Vertex], d: usize) -> f64 {
 pub fn lens_subpath(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Candidate> {
     let scene = ctx.scene;
     let d = first_diffuse_from_eye(x)?;
-    if !x[d - 1].connectible() {
+    if !x[d - 1].connectible() || took_a_mixed_delta_lobe(&x[d + 1..x.len() - 1]) {
         return None;
     }
     let mut rev = vec![x[x.len() - 1]];
@@ -378,6 +378,23 @@ pub fn lens_subpath(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Candid
     let t_fwd = ls_density(scene, &y, d);
     let t_rev = ls_density(scene, x, d);
     ratio(y, t_rev, t_fwd)
+}
+
+/// A re-traced vertex that stands for `old` in a perturbation that keeps the path's specular
+/// pattern: on a model with both kinds of lobe (smooth plastic) it takes the lobe `old` took,
+/// as a dielectric keeps reflecting or refracting.
+fn keep_lobe(mut v: Vertex, old: &Vertex) -> Vertex {
+    if v.mixed {
+        v.delta = old.delta;
+    }
+    v
+}
+
+/// Did the path take the delta lobe of a model with both kinds (smooth plastic) at any of
+/// `vertices`? LS and PM trace their specular chains until the first vertex that is not purely
+/// specular, so they cannot make such a chain, nor may they leave one (the reverse move).
+fn took_a_mixed_delta_lobe(vertices: &[Vertex]) -> bool {
+    vertices.iter().any(|v| v.mixed && v.delta)
 }
 
 fn ratio(path: Vec<Vertex>, t_rev: f64, t_fwd: f64) -> Option<Candidate> {
@@ -430,7 +447,7 @@ pub fn lens_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<C
     let cam = &scene.camera;
     let u2 = perturbed_image_point(ctx, x, rng)?;
     let mut y = x.to_vec();
-    y[k - 1] = trace(scene, &cam.generate_ray(u2))?;
+    y[k - 1] = keep_lobe(trace(scene, &cam.generate_ray(u2))?, &x[k - 1]);
     for i in (d..k - 1).rev() {
         if !y[i + 1].delta {
             return None;
@@ -438,7 +455,7 @@ pub fn lens_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<C
         let v = y[i + 1];
         let wo = v.frame.to_local(direction(&v, &y[i + 2]).0);
         let wi = specular_direction(&v.bsdf(scene), wo, reflects_at(x, i + 1))?;
-        y[i] = trace_from(scene, &v, v.frame.to_world(wi))?;
+        y[i] = keep_lobe(trace_from(scene, &v, v.frame.to_world(wi))?, &x[i]);
     }
     if y[d].delta || !visible(scene, &y[d - 1], &y[d]) {
         return None;
@@ -480,7 +497,7 @@ pub fn caustic_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Optio
     let mut dir = Frame::from_normal(axis).to_world(local);
     let mut y = x.to_vec();
     for i in j + 1..k {
-        y[i] = trace_from(scene, &y[i - 1], dir)?;
+        y[i] = keep_lobe(trace_from(scene, &y[i - 1], dir)?, &x[i]);
         if i + 1 < k {
             if !y[i].delta {
                 return None;
@@ -514,7 +531,7 @@ pub fn photon_map(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Candidat
     let scene = ctx.scene;
     let d = first_diffuse_from_eye(x)?;
     let e = (1..d).rev().find(|&i| !x[i].delta)?;
-    if !x[e - 1].connectible() {
+    if !x[e - 1].connectible() || took_a_mixed_delta_lobe(&x[e + 1..d]) {
         return None;
     }
     let axis = direction(&x[d], &x[d - 1]).0;
@@ -603,7 +620,7 @@ pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> O
     let u2 = perturbed_image_point(ctx, x, rng)?;
     let (theta1, theta2) = (ctx.params.caustic_theta1, ctx.params.caustic_theta2);
     let mut y = x.to_vec();
-    y[k - 1] = trace(scene, &cam.generate_ray(u2))?;
+    y[k - 1] = keep_lobe(trace(scene, &cam.generate_ray(u2))?, &x[k - 1]);
     // y[i] is re-traced; walk toward the light until a connection or the light.
     let mut i = k - 1;
     let c = loop {
@@ -642,7 +659,7 @@ pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> O
         if !next.is_surface() {
             return None;
         }
-        y[i] = next;
+        y[i] = keep_lobe(next, &x[i]);
     };
     let t_fwd = mc_density(scene, &y, c);
     let t_rev = mc_density(scene, x, c);

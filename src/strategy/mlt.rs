@@ -88,6 +88,10 @@ impl Strategy for Mlt {
         true
     }
 
+    fn handles_mixed_delta(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

@@ -59,3 +59,23 @@ pub fn assert_refused(err: &str, expect: &[&str]) {
         assert!(err.contains(e), "{err:?} lacks {e:?}");
     }
 }
+
+#[allow(dead_code)]
+/// Over `images` (one per seed), the mean of r + g + b over `pixels`, averaged, and its
+/// standard error.
+pub fn region_mean(images: &[Image], pixels: &[(u32, u32)]) -> (f64, f64) {
+    let per_image: Vec<f64> = images
+        .iter()
+        .map(|img| {
+            let sum: f64 = pixels
+                .iter()
+                .map(|&(x, y)| f64::from(img.get(x, y).element_sum()))
+                .sum();
+            sum / pixels.len() as f64
+        })
+        .collect();
+    let n = per_image.len() as f64;
+    let m = per_image.iter().sum::<f64>() / n;
+    let var = per_image.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0);
+    (m, (var / n).sqrt())
+}
