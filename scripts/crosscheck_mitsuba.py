@@ -184,8 +184,9 @@ def render_mitsuba(scene, spp, seeds, max_depth):
 def render_ours(bench, scene_file, spp, seeds, max_depth, tmp, extra=(), threads=(), strategy="path", sets=()):
     """K images (seeds 0 … K - 1) of our `path` via `bench reference`, no roulette; `extra` are
     more `bench reference` arguments (light selection), `threads` the global `--threads N`.
-    Another `strategy` renders via `bench render` with max_depth = rr_depth = `max_depth` and
-    the NAME=VALUE parameters `sets` (`extra` is then not used)."""
+    Another `strategy` renders via `bench render` with max_depth = rr_depth = `max_depth` (no
+    rr_depth for `mlt` and `mps`) and the NAME=VALUE parameters `sets` (`extra` is then not
+    used)."""
     stem = os.path.splitext(os.path.basename(scene_file))[0]
     images = []
     for k in range(seeds):
@@ -196,7 +197,9 @@ def render_ours(bench, scene_file, spp, seeds, max_depth, tmp, extra=(), threads
             exr = os.path.join(out, f"{stem}.exr")
         else:
             exr = os.path.join(out, f"{stem}.exr")
-            depth = [f"max_depth={max_depth}", f"rr_depth={max_depth}"]
+            # The Metropolis strategies' chains have no Russian roulette to turn off.
+            roulette = [] if strategy in ("mlt", "mps") else [f"rr_depth={max_depth}"]
+            depth = [f"max_depth={max_depth}", *roulette]
             command = [bench, *threads, "render", scene_file, "--strategy", strategy, "--spp", str(spp), "--seed",
                        str(k), "--out", exr, "--force", *[a for v in [*depth, *sets] for a in ("--set", v)]]
         subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
