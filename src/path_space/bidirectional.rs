@@ -10,11 +10,10 @@
 use super::walk::{extend_light_side, join, scatter, trace_eye, trace_from};
 use super::{
     Vertex, camera_factor, contribution, emitted, geometry, pdf_eye_side, pdf_eye_step, pdf_light_side, pdf_light_step,
-    scattering, scattering_at,
+    scattering, scattering_at, visible,
 };
 use crate::bsdf::TransportMode;
 use crate::geometry::spawn_ray;
-use crate::path_space::visible;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -316,7 +315,8 @@ impl Roulette {
     }
 
     /// Grows `sub` by BSDF sampling in `mode` until it holds `max_vertices`, the roulette ends
-    /// it, or a ray leaves the scene (`to_environment`: the walk may end on the environment).
+    /// it, or a ray leaves the scene (an eye walk, in `Radiance` mode, then ends on the
+    /// environment if the scene has one).
     fn grow(&self, scene: &Scene, sub: &mut SubPath, max_vertices: usize, mode: TransportMode, rng: &mut Rng) {
         let (mut beta, mut q) = (Vec3::ONE, 1.0);
         while sub.vertices.len() < max_vertices {
