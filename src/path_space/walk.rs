@@ -37,7 +37,7 @@ pub fn trace_from(scene: &Scene, v: &Vertex, d: Vec3) -> Option<Vertex> {
     trace(scene, &spawn_ray(v.p, v.ng, d))
 }
 
-/// A direction sampled at a surface vertex ([`sample_step`]).
+/// A direction sampled at a surface vertex ([`scatter`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Step {
     /// The direction, world space, unit.
@@ -49,9 +49,13 @@ pub struct Step {
     pub weight: Vec3,
 }
 
-/// Samples a direction at surface vertex `v`, reached from `from`, with the BSDF in `mode`.
-/// `None` when the BSDF absorbs or the shading and geometric normals disagree.
-pub fn sample_step(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode, rng: &mut Rng) -> Option<Step> {
+/// Samples, with the BSDF in `mode`, the direction in which the walk leaves the last vertex of
+/// `walk` (reached from the one before it), and records in that vertex which kind of lobe made
+/// it ([`Vertex::mixed`]). `None` when the BSDF absorbs or the shading and geometric normals
+/// disagree.
+pub fn scatter(scene: &Scene, walk: &mut [Vertex], mode: TransportMode, rng: &mut Rng) -> Option<Step> {
+    let n = walk.len();
+    let (v, from) = (&walk[n - 1], &walk[n - 2]);
     let wo = v.frame.to_local(direction(v, from).0);
     let (u, u_lobe) = (rng.uniform2(), rng.uniform());
     let s = v.bsdf(scene).sample(wo, u, u_lobe, mode)?;
@@ -59,20 +63,15 @@ pub fn sample_step(scene: &Scene, v: &Vertex, from: &Vertex, mode: TransportMode
         return None;
     }
     let wi = v.frame.to_world(s.wi);
-    (wi.dot(v.ng) * s.wi.z > 0.0).then(|| Step {
+    if wi.dot(v.ng) * s.wi.z <= 0.0 {
+        return None;
+    }
+    walk[n - 1].delta = s.delta;
+    Some(Step {
         wi,
         delta: s.delta,
         weight: s.f * (s.wi.z.abs() / s.pdf_w),
     })
-}
-
-/// Samples the direction in which the walk leaves the last vertex of `walk` (reached from the
-/// one before it) and records in that vertex which kind of lobe made it ([`Vertex::mixed`]).
-pub fn scatter(scene: &Scene, walk: &mut [Vertex], mode: TransportMode, rng: &mut Rng) -> Option<Step> {
-    let n = walk.len();
-    let step = sample_step(scene, &walk[n - 1], &walk[n - 2], mode, rng)?;
-    walk[n - 1].delta = step.delta;
-    Some(step)
 }
 
 /// A light vertex x₀: an emitter chosen ∝ power, a point uniformly on it (the position of a

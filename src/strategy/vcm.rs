@@ -38,7 +38,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::params::{Params, Range};
 use crate::path_space::bidirectional::{EyeCache, LightCache, SubPath, Technique, cached_densities, mis_weight_from};
-use crate::path_space::{Vertex, camera_factor, emitted, geometry, pdf_eye_side, scattering};
+use crate::path_space::{Vertex, emitted, scattering};
 use crate::photon::{KdPoint, KdTree};
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
@@ -129,27 +129,6 @@ fn bounding_radius(scene: &Scene) -> f64 {
     let (lo, hi) = scene.bounds();
     let r = 0.5 * (hi - lo).length() as f64;
     if r.is_finite() && r > 0.0 { r } else { 1.0 }
-}
-
-/// α_E(t−1) of eye sub-path `z` (z₀ the pinhole): its f / p per pixel up to z_{t−1},
-/// C(z₁) Π f_s G / (N Π p_E), 1 at z₁ ([`EyeCache::alpha`] from a cache; this whole-path form
-/// serves `ppm` mode).
-fn eye_alpha(scene: &Scene, z: &[Vertex], t: usize) -> Vec3 {
-    let rev: Vec<Vertex> = z[..t].iter().rev().copied().collect();
-    let k = t - 1;
-    let Some((_, c)) = camera_factor(scene, &rev[k - 1]) else {
-        return Vec3::ZERO;
-    };
-    let mut f = Vec3::splat(c);
-    for i in 1..k {
-        f *= scattering(scene, &rev, i) * geometry(&rev[i - 1], &rev[i]);
-    }
-    let n = scene.camera.pixel_count() as f64;
-    let p: f64 = (0..k).map(|i| pdf_eye_side(scene, &rev, i) as f64).product::<f64>() * n;
-    if !(p > 0.0 && p.is_finite()) {
-        return Vec3::ZERO;
-    }
-    (f.as_dvec3() / p).as_vec3()
 }
 
 /// One pass's light side: a sub-path per pixel, their caches and the kd-tree of their merging
@@ -290,9 +269,10 @@ impl Vcm {
                 sample
             }
             VcmMode::Ppm => {
+                let eye_cache = EyeCache::new(scene, z);
                 let mut own = DVec3::ZERO;
                 for t in 2..=z.len() {
-                    let alpha_e = eye_alpha(scene, z, t) / eye.survival[t - 1] as f32;
+                    let alpha_e = eye_cache.alpha(t, scene.camera.pixel_count() as f64) / eye.survival[t - 1] as f32;
                     if let Some(x0) = z[t - 1].as_light(scene) {
                         own += (alpha_e * emitted(scene, &[x0, z[t - 2]])).as_dvec3();
                     }
@@ -382,8 +362,28 @@ impl Strategy for Vcm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::path_space::{light_throughput, pdf_light_side};
+    use crate::path_space::{camera_factor, geometry, light_throughput, pdf_eye_side, pdf_light_side};
     use crate::photon::test_scenes::emitting_box;
+
+    /// α_E(t−1) of eye sub-path `z` (z₀ the pinhole) from the whole path, the reference for
+    /// [`EyeCache::alpha`]: its f / p per pixel up to z_{t−1}, C(z₁) Π f_s G / (N Π p_E).
+    fn eye_alpha(scene: &Scene, z: &[Vertex], t: usize) -> Vec3 {
+        let rev: Vec<Vertex> = z[..t].iter().rev().copied().collect();
+        let k = t - 1;
+        let Some((_, c)) = camera_factor(scene, &rev[k - 1]) else {
+            return Vec3::ZERO;
+        };
+        let mut f = Vec3::splat(c);
+        for i in 1..k {
+            f *= scattering(scene, &rev, i) * geometry(&rev[i - 1], &rev[i]);
+        }
+        let n = scene.camera.pixel_count() as f64;
+        let p: f64 = (0..k).map(|i| pdf_eye_side(scene, &rev, i) as f64).product::<f64>() * n;
+        if !(p > 0.0 && p.is_finite()) {
+            return Vec3::ZERO;
+        }
+        (f.as_dvec3() / p).as_vec3()
+    }
 
     /// α_L(u) of light sub-path `y` (u ≥ 1) from the whole path, the reference for
     /// [`LightCache::alpha`]: its f / p up to y_u in area measure, the photon's flux.
