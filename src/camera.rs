@@ -94,12 +94,6 @@ impl Camera {
         self
     }
 
-    /// Whether every ray leaves the eye point (what path space's camera vertex assumes).
-    #[inline]
-    pub fn is_pinhole(&self) -> bool {
-        self.lens == Lens::Pinhole
-    }
-
     /// The same camera rendering only the film's pixels [x, x + w) × [y, y + h), `offset` =
     /// (x, y) and `size` = (w, h), which the caller has checked lie on the film.
     pub fn with_crop(mut self, offset: (u32, u32), size: (u32, u32)) -> Self {
@@ -168,19 +162,93 @@ impl Camera {
     /// not read it.
     #[inline]
     pub fn lens_ray(&self, raster: Vec2, u_lens: Vec2) -> Ray {
-        let Lens::Thin {
-            aperture_radius,
-            focus_distance,
-        } = self.lens
-        else {
-            return self.generate_ray(raster);
+        self.ray_from(raster, self.lens_point(u_lens))
+    }
+
+    /// Whether rays leave parallel to the view from a film rectangle (a delta in direction:
+    /// path space's camera vertex is then the film point behind the vertex it sees).
+    #[inline]
+    pub fn is_orthographic(&self) -> bool {
+        matches!(self.lens, Lens::Orthographic { .. })
+    }
+
+    /// The point on the lens disc of a thin lens for `u` ∈ [0, 1)² (mapped concentrically, as
+    /// [`Camera::lens_ray`] maps it); the eye point for the other cameras.
+    #[inline]
+    pub fn lens_point(&self, u: Vec2) -> Vec3 {
+        match self.lens {
+            Lens::Thin { aperture_radius, .. } => {
+                let on_lens = sample_concentric_disk(u) * aperture_radius;
+                self.eye + self.right * on_lens.x + self.true_up * on_lens.y
+            }
+            _ => self.eye,
+        }
+    }
+
+    /// The ray through raster position `raster` that leaves lens point `p` (a point of the
+    /// thin lens's disc, [`Camera::lens_point`]); the pinhole's ray from the eye and the
+    /// orthographic camera's ray from the film point of `raster` do not read `p`.
+    #[inline]
+    pub fn ray_from(&self, raster: Vec2, p: Vec3) -> Ray {
+        match self.lens {
+            Lens::Thin { focus_distance, .. } => {
+                let offset = p - self.eye;
+                let focus = self.pinhole_direction(raster) * focus_distance;
+                Ray::new(p, (focus - offset).normalize())
+            }
+            _ => self.generate_ray(raster),
+        }
+    }
+
+    /// The raster position where a ray leaving lens point `p` in direction `d` lands: through
+    /// the point where it crosses the plane of focus for a thin lens, [`Camera::raster_position`]
+    /// of `d` for a pinhole (an orthographic camera has no such map: [`Camera::film_point`]).
+    pub fn raster_from(&self, p: Vec3, d: Vec3) -> Option<Vec2> {
+        let Lens::Thin { focus_distance, .. } = self.lens else {
+            return self.raster_position(d);
         };
-        // The pinhole ray's direction with forward component 1 (Mitsuba's near-plane point),
-        // scaled to reach the plane of focus.
-        let focus = self.pinhole_direction(raster) * focus_distance;
-        let on_lens = sample_concentric_disk(u_lens) * aperture_radius;
-        let offset = self.right * on_lens.x + self.true_up * on_lens.y;
-        Ray::new(self.eye + offset, (focus - offset).normalize())
+        let cos = d.dot(self.forward);
+        if cos <= 0.0 {
+            return None;
+        }
+        let on_focus = (p - self.eye) + d * (focus_distance / cos);
+        self.raster_on_plane(on_focus / focus_distance)
+    }
+
+    /// The point of an orthographic camera's film rectangle behind world point `x` (x seen along
+    /// the view) and its raster position; `None` when `x` lies behind the film plane or outside
+    /// the image.
+    pub fn film_point(&self, x: Vec3) -> Option<(Vec3, Vec2)> {
+        let rel = x - self.eye;
+        let depth = rel.dot(self.forward);
+        if depth <= 0.0 {
+            return None;
+        }
+        let o = x - self.forward * depth;
+        Some((o, self.film_raster(o)?))
+    }
+
+    /// The raster position of the point `o` of an orthographic camera's film rectangle; `None`
+    /// outside the image.
+    pub fn film_raster(&self, o: Vec3) -> Option<Vec2> {
+        let Lens::Orthographic { half_w, half_h } = self.lens else {
+            return None;
+        };
+        let rel = o - self.eye;
+        let on_plane = Vec2::new(rel.dot(self.right) / half_w, rel.dot(self.true_up) / half_h);
+        self.raster_of_ndc(on_plane.x, on_plane.y)
+    }
+
+    /// Raster area per unit area of an orthographic camera's film rectangle: du/dA_film, the
+    /// density with which a raster point uniform over the film lands on the rectangle, times the
+    /// film's pixel count (zero for the other cameras).
+    pub fn raster_per_film_area(&self) -> f32 {
+        match self.lens {
+            Lens::Orthographic { half_w, half_h } => {
+                (self.film.0 as f32 / (2.0 * half_w)) * (self.film.1 as f32 / (2.0 * half_h))
+            }
+            _ => 0.0,
+        }
     }
 
     /// The ray through raster position `raster` (pixel (x, y) covers [x, x+1) × [y, y+1)) from
@@ -220,9 +288,23 @@ impl Camera {
         if cos <= 0.0 {
             return None;
         }
-        let on_plane = d / cos;
-        let ndc_x = on_plane.dot(self.right) / self.half_w;
-        let ndc_y = on_plane.dot(self.true_up) / self.half_h;
+        self.raster_on_plane(d / cos)
+    }
+
+    /// Raster position of the point `on_plane` (relative to the eye) of the plane at distance 1
+    /// along the view, if it lies on the image.
+    #[inline]
+    fn raster_on_plane(&self, on_plane: Vec3) -> Option<Vec2> {
+        self.raster_of_ndc(
+            on_plane.dot(self.right) / self.half_w,
+            on_plane.dot(self.true_up) / self.half_h,
+        )
+    }
+
+    /// Raster position of normalised device coordinates (the inverse of [`Camera::ndc`]), if it
+    /// lies on the image.
+    #[inline]
+    fn raster_of_ndc(&self, ndc_x: f32, ndc_y: f32) -> Option<Vec2> {
         let raster = Vec2::new(
             (ndc_x + 1.0) * 0.5 * self.film.0 as f32 - self.crop_offset.0 as f32,
             (1.0 - ndc_y) * 0.5 * self.film.1 as f32 - self.crop_offset.1 as f32,

@@ -10,7 +10,7 @@
 //! error applies to every block alike. |z| < 4.5 for each of the 16 blocks.
 
 use glam::{DVec3, Vec3};
-use photon_bench::camera::Camera;
+use photon_bench::camera::{Camera, Lens};
 use photon_bench::color::luminance;
 use photon_bench::film::Film;
 use photon_bench::metropolis::proposals::Context;
@@ -495,7 +495,7 @@ fn bd_and_ls_transition_densities_match_their_own_candidates() {
     // X = L D E: light centre, a point on the back wall, the eye.
     let x0 = Vertex::light(&scene, 0, Vec3::new(0.2, 0.999, 0.5), -Vec3::Y);
     let x1 = trace_from(&scene, &x0, (Vec3::new(0.6, 0.5, 1.0) - x0.p).normalize()).unwrap();
-    let x = vec![x0, x1, Vertex::eye(&scene)];
+    let x = vec![x0, x1, Vertex::eye_at(&scene, scene.camera.eye)];
     let on_floor = |v: &Vertex| v.p.y.abs() < 1e-4;
     let n = 200_000;
     let mut rng = Rng::for_task(1, [0, 0, 0]);
@@ -546,7 +546,7 @@ fn pm_transition_density_matches_its_own_candidates() {
     let x0 = Vertex::light(&scene, 0, Vec3::new(0.2, 0.999, 0.5), -Vec3::Y);
     let x1 = trace_from(&scene, &x0, (Vec3::new(0.5, 0.0, 0.6) - x0.p).normalize()).unwrap();
     let x2 = trace_from(&scene, &x1, (Vec3::new(0.5, 0.3, 1.0) - x1.p).normalize()).unwrap();
-    let x = vec![x0, x1, x2, Vertex::eye(&scene)];
+    let x = vec![x0, x1, x2, Vertex::eye_at(&scene, scene.camera.eye)];
     assert!(State::new(&scene, x.clone()).is_some());
     let cos_gamma = params.pm_gamma_deg.to_radians().cos();
     let cone_pdf = 1.0 / (std::f64::consts::TAU * (1.0 - cos_gamma as f64));
@@ -769,7 +769,7 @@ fn lp_transition_density_matches_its_own_candidates() {
     .unwrap();
     let x1 = trace_from(&scene, &s, (wall_point - s.p.as_dvec3()).normalize().as_vec3()).unwrap();
     assert!(s.delta && (x1.p.as_dvec3() - wall_point).length() < 1e-4);
-    let x = vec![light_vertex(&scene), x1, s, Vertex::eye(&scene)];
+    let x = vec![light_vertex(&scene), x1, s, Vertex::eye_at(&scene, scene.camera.eye)];
     assert!(State::new(&scene, x.clone()).is_some());
     let raster = |p: DVec3| cam.raster_position((p - eye).normalize().as_vec3());
     let u = raster(image(wall_point)).unwrap();
@@ -829,7 +829,7 @@ fn cp_transition_density_matches_its_own_candidates() {
     let x1 = trace_from(&scene, &x0, (m - LIGHT).normalize().as_vec3()).unwrap();
     let x2 = trace_from(&scene, &x1, (wall_point - m).normalize().as_vec3()).unwrap();
     assert!(x1.delta && (x2.p.as_dvec3() - wall_point).length() < 1e-4);
-    let x = vec![x0, x1, x2, Vertex::eye(&scene)];
+    let x = vec![x0, x1, x2, Vertex::eye_at(&scene, scene.camera.eye)];
     assert!(State::new(&scene, x.clone()).is_some());
     let axis = x1.p.as_dvec3() - LIGHT;
     let (theta1, theta2) = (params.caustic_theta1 as f64, params.caustic_theta2 as f64);
@@ -905,7 +905,7 @@ fn up_transition_density_matches_its_own_candidates() {
     let ctx = Context::new(&scene, &params, &user_paths);
     let x0 = light_vertex(&scene);
     let x1 = trace_from(&scene, &x0, (DVec3::new(0.0, 0.4, 0.6) - LIGHT).normalize().as_vec3()).unwrap();
-    let x = vec![x0, x1, Vertex::eye(&scene)];
+    let x = vec![x0, x1, Vertex::eye_at(&scene, scene.camera.eye)];
     assert!(State::new(&scene, x.clone()).is_some());
 
     let n = 600_000;
@@ -967,7 +967,7 @@ fn mc_transition_density_matches_its_own_candidates() {
     let x1 = trace_from(&scene, &x0, (m - LIGHT).normalize().as_vec3()).unwrap();
     let x2 = trace_from(&scene, &x1, (wall_point - m).normalize().as_vec3()).unwrap();
     assert!(x1.delta && (x2.p.as_dvec3() - wall_point).length() < 1e-4);
-    let x = vec![x0, x1, x2, Vertex::eye(&scene)];
+    let x = vec![x0, x1, x2, Vertex::eye_at(&scene, scene.camera.eye)];
     assert!(State::new(&scene, x.clone()).is_some());
     let raster = |p: DVec3| cam.raster_position((p - eye).normalize().as_vec3());
     let u = raster(wall_point).unwrap();
@@ -1260,4 +1260,40 @@ fn every_proposal_samples_f_eye_on_smooth_plastic() {
     check_on("cp+bd, plastic", &scene, mix(|m| m.cp = 0.5));
     check_on("pm+bd, plastic", &scene, mix(|m| m.pm = 0.5));
     check_on("mc+bd, plastic", &scene, mix(|m| m.mc = 0.5));
+}
+
+/// Through a thin lens and an orthographic camera (the courtyard under its sky and a point
+/// light): the lens point is a vertex of the path that BD (regenerating from the eye) and LS
+/// draw anew and LP, CP and MC keep; an orthographic camera's eye vertex is the film point
+/// behind x_{k−1}, and the sky seen straight ahead is a delta in direction at both ends
+/// (`path_space`'s module doc, "Cameras"). BD alone and each perturbation with BD match path
+/// tracing as above.
+#[test]
+fn every_proposal_samples_f_eye_through_a_lens() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, lens) in [
+        (
+            "thin lens",
+            Lens::Thin {
+                aperture_radius: 0.25,
+                focus_distance: 3.0,
+            },
+        ),
+        (
+            "orthographic",
+            Lens::Orthographic {
+                half_w: 1.6,
+                half_h: 1.6,
+            },
+        ),
+    ] {
+        let mut scene = light_zoo_with(dir.path(), &["env", "point"]);
+        scene.camera = scene.camera.clone().with_lens(lens);
+        check_on(&format!("bd, {name}"), &scene, mix(|_| {}));
+        check_on(&format!("ls+bd, {name}"), &scene, mix(|m| m.ls = 0.5));
+        check_on(&format!("lp+bd, {name}"), &scene, mix(|m| m.lp = 0.5));
+        check_on(&format!("cp+bd, {name}"), &scene, mix(|m| m.cp = 0.5));
+        check_on(&format!("pm+bd, {name}"), &scene, mix(|m| m.pm = 0.5));
+        check_on(&format!("mc+bd, {name}"), &scene, mix(|m| m.mc = 0.5));
+    }
 }

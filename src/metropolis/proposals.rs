@@ -13,12 +13,12 @@ use super::{MetropolisParams, UserPathInfo};
 use crate::bsdf::TransportMode;
 use crate::geometry::Frame;
 use crate::path_space::walk::{
-    extend_eye_side, extend_eye_to_diffuse, extend_light_side, join, raster_of, scatter, trace, trace_eye_from,
-    trace_from,
+    extend_eye_side, extend_eye_to_diffuse, extend_light_side, first_eye_vertex, join, raster_of, scatter,
+    trace_eye_from, trace_from,
 };
 use crate::path_space::{
-    Vertex, camera_factor, direction, first_diffuse_from_eye, pdf_eye_side, pdf_light_side, solid_angle_to_area,
-    visible,
+    Vertex, camera_factor, direction, eye_toward, first_diffuse_from_eye, pdf_eye_side, pdf_light_side,
+    solid_angle_to_area, visible,
 };
 use crate::sampling::{Rng, sample_uniform_cone};
 use crate::scene::Scene;
@@ -199,6 +199,12 @@ pub fn bidirectional(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<(Vec<
         return None;
     }
     let mut rev: Vec<Vertex> = x[m..].iter().rev().copied().collect();
+    if m == k {
+        // Regenerating from the eye draws a new lens point (thin lens; density 1 both ways in
+        // the lens's probability measure, module doc of `path_space`, "Cameras"): the move that
+        // lets BD-only mixes explore the lens.
+        rev[0] = Vertex::eye(ctx.scene, rng);
+    }
     if !extend_eye_side(ctx.scene, &mut rev, n - s, rng) {
         return None;
     }
@@ -208,6 +214,10 @@ pub fn bidirectional(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<(Vec<
         let x0 = rev.pop()?.as_light(ctx.scene)?;
         rev.push(x0);
         return Some((rev.into_iter().rev().collect(), l, k + 1 - m));
+    }
+    if let [eye] = rev.as_mut_slice() {
+        // t = 1: an orthographic camera's eye vertex is the film point behind the light end.
+        *eye = eye_toward(ctx.scene, light.last()?, eye);
     }
     let (a, b) = (light.last()?, rev.last()?);
     // An eye walk that left the scene ends at x₀ on the environment, never at a connection.
@@ -367,7 +377,8 @@ pub fn lens_subpath(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<Candid
     if !x[d - 1].connectible() || took_a_mixed_delta_lobe(&x[d + 1..x.len() - 1]) {
         return None;
     }
-    let mut rev = vec![x[x.len() - 1]];
+    // A new lens point too (thin lens; density 1 both ways, as BD's).
+    let mut rev = vec![Vertex::eye(scene, rng)];
     if !extend_eye_to_diffuse(scene, &mut rev, ctx.max_edges + 1 - d, rng) {
         return None;
     }
@@ -412,8 +423,18 @@ fn ratio(path: Vec<Vertex>, t_rev: f64, t_fwd: f64) -> Option<Candidate> {
 /// the tests that check it against LP's own candidates.
 pub fn lp_density(scene: &Scene, path: &[Vertex], d: usize) -> f64 {
     let k = path.len() - 1;
-    let c = camera_factor(scene, &path[k - 1]).map_or(0.0, |(_, c)| c as f64);
+    let c = camera_factor(scene, &path[k - 1], &path[k]).map_or(0.0, |(_, c)| c as f64);
     (d..k - 1).fold(c, |acc, i| acc * solid_angle_to_area(&path[i + 1], &path[i]) as f64)
+}
+
+/// Re-traces the first surface the eye sees, y_{k−1}, through image point `u2` from the kept
+/// lens point (an orthographic camera: from `u2`'s film point, which becomes y_k), keeping the
+/// lobe x_{k−1} took (LP and MC). `None` when the ray leaves the scene.
+fn retrace_through(scene: &Scene, y: &mut [Vertex], x: &[Vertex], u2: Vec2) -> Option<()> {
+    let k = y.len() - 1;
+    let v = first_eye_vertex(scene, &mut y[k], u2).filter(Vertex::is_surface)?;
+    y[k - 1] = keep_lobe(v, &x[k - 1]);
+    Some(())
 }
 
 /// Offset of a perturbation: radius r ∈ [r1, r2] with density ∝ 1/r, angle uniform.
@@ -444,10 +465,9 @@ pub fn lens_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Option<C
     if !x[d - 1].connectible() {
         return None;
     }
-    let cam = &scene.camera;
     let u2 = perturbed_image_point(ctx, x, rng)?;
     let mut y = x.to_vec();
-    y[k - 1] = keep_lobe(trace(scene, &cam.generate_ray(u2))?, &x[k - 1]);
+    retrace_through(scene, &mut y, x, u2)?;
     for i in (d..k - 1).rev() {
         if !y[i + 1].delta {
             return None;
@@ -508,7 +528,8 @@ pub fn caustic_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> Optio
             dir = v.frame.to_world(wi);
         }
     }
-    if y[k - 1].delta || camera_factor(scene, &y[k - 1]).is_none() || !visible(scene, &y[k - 1], &y[k]) {
+    y[k] = eye_toward(scene, &y[k - 1], &x[k]);
+    if y[k - 1].delta || camera_factor(scene, &y[k - 1], &y[k]).is_none() || !visible(scene, &y[k - 1], &y[k]) {
         return None;
     }
     ratio(y.clone(), cp_density(x, j), cp_density(&y, j))
@@ -616,11 +637,10 @@ pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> O
         // (L|D) D S* E: LP's paths, no further chain.
         return None;
     }
-    let cam = &scene.camera;
     let u2 = perturbed_image_point(ctx, x, rng)?;
     let (theta1, theta2) = (ctx.params.caustic_theta1, ctx.params.caustic_theta2);
     let mut y = x.to_vec();
-    y[k - 1] = keep_lobe(trace(scene, &cam.generate_ray(u2))?, &x[k - 1]);
+    retrace_through(scene, &mut y, x, u2)?;
     // y[i] is re-traced; walk toward the light until a connection or the light.
     let mut i = k - 1;
     let c = loop {

@@ -7,10 +7,10 @@
 //! value divides by the survival probabilities of the vertices it uses, the weights ignore
 //! them (they still sum to one, so the estimators stay unbiased, as in pbrt).
 
-use super::walk::{extend_light_side, join, scatter, trace_eye, trace_from};
+use super::walk::{extend_light_side, first_eye_vertex, join, scatter, trace_eye, trace_from};
 use super::{
-    Vertex, camera_factor, contribution, emitted, geometry, pdf_eye_side, pdf_eye_step, pdf_light_side, pdf_light_step,
-    scattering, scattering_at, visible,
+    Vertex, camera_factor, contribution, emitted, eye_toward, geometry, pdf_eye_side, pdf_eye_step, pdf_light_side,
+    pdf_light_step, scattering, scattering_at, visible,
 };
 use crate::bsdf::TransportMode;
 use crate::geometry::spawn_ray;
@@ -34,7 +34,7 @@ pub enum Technique {
 /// connection, and with `eta`, merging at x_m: p_VM,m(X) = η p_L(x_m) p_m(X) [Georgiev et al.
 /// 2012, eq. (13); Hachisuka et al. 2012], x_m sampled by both sides and accepted within
 /// the kernel's disc π r², by any of the N_VM light sub-paths of the pass. A connection
-/// counts when it joins two non-specular vertices (s' = 0 and the pinhole side of t = 1
+/// counts when it joins two non-specular vertices (s' = 0 and the eye side of t = 1
 /// always can); merging needs a non-specular x_m. `None` for paths of more than `max_edges`
 /// edges or of zero density.
 pub fn mis_weight_from(
@@ -60,7 +60,7 @@ pub fn mis_weight_from(
         eye_suffix[i] = pe[i] * eye_suffix[i + 1];
     }
     let p = |s: usize| -> f64 { light_prefix[s] * eye_suffix[s] };
-    // Technique s' joins x_{s'−1} and x_{s'}: both must be non-specular (the pinhole and a
+    // Technique s' joins x_{s'−1} and x_{s'}: both must be non-specular (the eye vertex and a
     // hit of the eye walk on a light always may).
     // The eye walk cannot hit a point, spot or directional light (s' = 0 needs x₀ on an
     // area light or the environment).
@@ -151,7 +151,7 @@ pub fn weighted_cached(
             Vec2::ZERO,
         ),
         (_, 1) => {
-            let (raster, c) = camera_factor(scene, &path[k - 1])?;
+            let (raster, c) = camera_factor(scene, &path[k - 1], &path[k])?;
             (light.f[s] * scattering(scene, path, s - 1) * c, raster)
         }
         (1, _) => (
@@ -246,7 +246,7 @@ impl LightCache {
     }
 }
 
-/// What no connection changes on an eye sub-path z of T vertices (z₀ the pinhole).
+/// What no connection changes on an eye sub-path z of T vertices (z₀ the eye vertex).
 pub struct EyeCache {
     /// p_E(z_j), from z_{j−1} and z_{j−2} (1 ≤ j < T; index 0 unused).
     pe: Vec<f64>,
@@ -271,7 +271,7 @@ impl EyeCache {
             .collect();
         let mut f = vec![Vec3::ZERO; t.max(2) + 1];
         if t >= 2 {
-            f[2] = camera_factor(scene, &z[1]).map_or(Vec3::ZERO, |(_, c)| Vec3::splat(c));
+            f[2] = camera_factor(scene, &z[1], &z[0]).map_or(Vec3::ZERO, |(_, c)| Vec3::splat(c));
             for j in 3..=t {
                 f[j] =
                     f[j - 1] * scattering_at(scene, &z[j - 2], &z[j - 3], &z[j - 1]) * geometry(&z[j - 1], &z[j - 2]);
@@ -362,13 +362,16 @@ impl SubPath {
     }
 }
 
-/// The eye sub-path through `raster`: z₀ the pinhole, then up to `max_depth + 1` surface
-/// vertices, ended by the environment where a ray leaves a scene that has one. Throughput for
-/// roulette: the product of f_s |cos| / p_ω along the walk.
+/// The eye sub-path through `raster`: z₀ on the camera (a lens point drawn uniformly for a
+/// thin lens), then up to `max_depth + 1` surface vertices, ended by the environment where a
+/// ray leaves a scene that has one. Throughput for roulette: the product of f_s |cos| / p_ω
+/// along the walk.
 pub fn eye_subpath(scene: &Scene, raster: Vec2, roulette: Roulette, rng: &mut Rng) -> SubPath {
     let mut sub = SubPath::default();
-    sub.push(Vertex::eye(scene), 1.0);
-    let Some(z1) = trace_eye(scene, &scene.camera.generate_ray(raster)) else {
+    let mut z0 = Vertex::eye(scene, rng);
+    let z1 = first_eye_vertex(scene, &mut z0, raster);
+    sub.push(z0, 1.0);
+    let Some(z1) = z1 else {
         return sub;
     };
     sub.push(z1, 1.0);
@@ -406,7 +409,7 @@ pub struct Connection<'a> {
 }
 
 /// Every connection technique between one eye and one light sub-path — s = 0 (the eye walk hits
-/// a light), t = 1 (y_{s−1} to the pinhole), s ≥ 1 with t ≥ 2 (y_{s−1} to z_{t−1}) — each of
+/// a light), t = 1 (y_{s−1} to the eye), s ≥ 1 with t ≥ 2 (y_{s−1} to z_{t−1}) — each of
 /// at most `max_edges` edges, weighted with merging in the weights when `eta` is given (`vcm`);
 /// `visit` receives those that contribute. Returns the number of connections tried (shadow
 /// rays cast or skipped by an earlier test).
@@ -444,12 +447,14 @@ pub fn connect_all(
         if !y[s - 1].can_end_connection() {
             continue;
         }
-        // t = 1: y_{s−1} to the pinhole, splatted.
-        if camera_factor(scene, &y[s - 1]).is_some() {
-            let path = join(&y[..s], &z[..1]);
+        // t = 1: y_{s−1} to the eye (the eye walk's lens point, the film point behind y_{s−1}
+        // for an orthographic camera), splatted.
+        let z0 = eye_toward(scene, &y[s - 1], &z[0]);
+        if camera_factor(scene, &y[s - 1], &z0).is_some() {
+            let path = join(&y[..s], &[z0]);
             tried += 1;
             if let Some((v, r)) = weigh(&path, s, 1)
-                && visible(scene, &y[s - 1], &z[0])
+                && visible(scene, &y[s - 1], &z0)
             {
                 let value = v / light.survival[s - 1] as f32;
                 visit(Connection {

@@ -8,10 +8,25 @@
 //! with G(a,b) = |cos θ_a| |cos θ_b| / |a − b|², θ_b (the end nearer the eye) against the
 //! shading normal ([`geometry`]; visibility is checked by whoever builds a new edge: traced
 //! edges are visible by construction, connections cast a shadow ray). The last
-//! factor, for the edge to the pinhole, is the camera's importance in raster units:
+//! factor, for the edge to the eye, is the camera's importance in raster units:
 //! C(x_{k−1}) = du/dA(x_{k−1}) = s² |cos θ_x| / (r² cos³ θ_cam) ([`camera_factor`]), zero outside
 //! the image. With it, ∫ f dμ is the sum over pixels of the pixel values (pixel area 1), so the
 //! normalisation B = ∫ f_Y dμ is the total luminance reaching the image, the paper's B_eye.
+//!
+//! **Cameras** (Veach 1997 makes the lens point a vertex of the path): x_k is the pinhole, a point
+//! of a thin lens's disc, or the point of an orthographic camera's film rectangle behind x_{k−1}.
+//! *Thin lens*: x_k is a vertex of its own whose measure is the lens disc's area divided by the
+//! disc's (a probability measure, so that a pinhole is its limit and x_k's density is 1 for
+//! every technique: the eye side always draws it uniformly, and no technique ends a light walk
+//! on the lens). C(x_{k−1}) is then the pinhole's factor seen from x_k, with the raster
+//! position where the ray x_k → x_{k−1} crosses the plane of focus (a pixel value is the
+//! lens-averaged radiance through it, as the path tracer estimates it). *Orthographic*: the
+//! direction is a delta, so the path's measure lives on x_{k−1} and x_k is determined by it
+//! (the film point behind it, [`eye_toward`]); C(x_{k−1}) = du/dA_film |cos θ_x| (the film area
+//! behind dA(x) is |cos θ_x| dA(x)), and a connection to the eye is deterministic, as next-event
+//! estimation toward a directional light is. The environment seen straight ahead (k = 1) is a
+//! delta in both directions: only the eye walk makes it, so its vertex is specular (`delta`
+//! set by the walk) and C is du/dA_film, the coefficient of the delta.
 //!
 //! **Specular vertices** (only delta lobes: mirrors, smooth glass) carry the coefficient of
 //! their delta distribution in f and the probability of choosing their lobe in the densities
@@ -46,8 +61,10 @@ pub mod bidirectional;
 pub mod walk;
 
 use crate::bsdf::{Bsdf, TransportMode};
+use crate::camera::Lens;
 use crate::geometry::{Frame, spawn_ray, spawn_shadow_ray};
 use crate::light::delta::DeltaLight;
+use crate::sampling::Rng;
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Vec2, Vec3};
 use std::borrow::Cow;
@@ -72,7 +89,7 @@ pub enum VertexKind {
     Directional(u32),
     /// A scattering point.
     Surface,
-    /// x_k, the pinhole.
+    /// x_k, on the camera: the pinhole, a lens point or a film point (module doc, "Cameras").
     Eye,
 }
 
@@ -177,11 +194,23 @@ impl Vertex {
         }
     }
 
-    /// The pinhole x_k.
-    pub fn eye(scene: &Scene) -> Self {
+    /// The eye vertex x_k of a new eye sub-path: the pinhole, a point drawn uniformly on a thin
+    /// lens (nothing is drawn for the other cameras), or the eye point of an orthographic
+    /// camera, which the walk's first ray moves to its film point ([`walk::first_eye_vertex`]).
+    pub fn eye(scene: &Scene, rng: &mut Rng) -> Self {
+        let cam = &scene.camera;
+        let p = match cam.lens {
+            Lens::Thin { .. } => cam.lens_point(rng.uniform2()),
+            _ => cam.eye,
+        };
+        Self::eye_at(scene, p)
+    }
+
+    /// The eye vertex at point `p` of the lens or the film.
+    pub fn eye_at(scene: &Scene, p: Vec3) -> Self {
         let forward = scene.camera.forward();
         Self {
-            p: scene.camera.eye,
+            p,
             ng: forward,
             frame: Frame::from_normal(forward),
             prim: u32::MAX,
@@ -305,27 +334,48 @@ pub fn solid_angle_to_area(a: &Vertex, b: &Vertex) -> f32 {
     if d2 == 0.0 { 0.0 } else { cos_at(b, d) / d2 }
 }
 
-/// The camera factor C(x) = du/dA(x) of a vertex seen from the pinhole, with its raster
-/// position (du/dω for the environment, whose measure is solid angle); `None` outside the
-/// image or behind the camera, and for point, spot and directional light (a delta the pinhole
-/// cannot see).
-pub fn camera_factor(scene: &Scene, x: &Vertex) -> Option<(Vec2, f32)> {
+/// The eye vertex that a connection from `x` meets, given the path's eye vertex `eye`: `eye`
+/// itself (pinhole, lens point), or for an orthographic camera the film point behind `x`
+/// (module doc, "Cameras"; `eye` when there is none: [`camera_factor`] is then `None`).
+pub fn eye_toward(scene: &Scene, x: &Vertex, eye: &Vertex) -> Vertex {
+    let cam = &scene.camera;
+    match cam.is_orthographic() && !x.is_at_infinity() {
+        true => cam.film_point(x.p).map_or(*eye, |(o, _)| Vertex::eye_at(scene, o)),
+        false => *eye,
+    }
+}
+
+/// The camera factor C(x) = du/dA(x) of a vertex `x` seen from eye vertex `eye` (module doc,
+/// "Cameras"), with its raster position (du/dω for the environment, whose measure is solid
+/// angle); `None` outside the image or behind the camera, and for point, spot and directional
+/// light (a delta the camera cannot see).
+pub fn camera_factor(scene: &Scene, x: &Vertex, eye: &Vertex) -> Option<(Vec2, f32)> {
     if matches!(x.kind, VertexKind::DeltaLight(_) | VertexKind::Directional(_)) {
         return None;
     }
     let cam = &scene.camera;
-    let (d, r2) = if x.is_at_infinity() {
-        (-x.ng, 1.0)
-    } else {
-        let d = x.p - cam.eye;
-        let r2 = d.length_squared();
-        if r2 == 0.0 {
-            return None;
+    let (raster, c) = if cam.is_orthographic() {
+        if x.is_at_infinity() {
+            // The environment straight ahead: a specular edge only the eye walk makes.
+            (cam.film_raster(eye.p).filter(|_| x.delta)?, cam.raster_per_film_area())
+        } else {
+            let (_, raster) = cam.film_point(x.p)?;
+            (raster, cam.raster_per_film_area() * cos_at(x, -cam.forward()))
         }
-        (d / r2.sqrt(), r2)
+    } else {
+        let (d, r2) = if x.is_at_infinity() {
+            (-x.ng, 1.0)
+        } else {
+            let d = x.p - eye.p;
+            let r2 = d.length_squared();
+            if r2 == 0.0 {
+                return None;
+            }
+            (d / r2.sqrt(), r2)
+        };
+        let raster = cam.raster_from(eye.p, d)?;
+        (raster, cam.raster_per_solid_angle(d) * cos_at(x, d) / r2)
     };
-    let raster = cam.raster_position(d)?;
-    let c = cam.raster_per_solid_angle(d) * cos_at(x, d) / r2;
     (c > 0.0 && c.is_finite()).then_some((raster, c))
 }
 
@@ -436,7 +486,7 @@ pub fn contribution(scene: &Scene, path: &[Vertex]) -> Option<(Vec3, Vec2)> {
     if k == 0 || !path[0].is_light() || path[k].kind != VertexKind::Eye {
         return None;
     }
-    let (raster, c) = camera_factor(scene, &path[k - 1])?;
+    let (raster, c) = camera_factor(scene, &path[k - 1], &path[k])?;
     let f = if k == 1 {
         emitted(scene, path) * c
     } else {
@@ -501,7 +551,8 @@ pub fn pdf_light_step(scene: &Scene, x: &Vertex, v: &Vertex, before: &Vertex) ->
 }
 
 /// Area density with which the *eye* side produces vertex i from i+1 (and i+2): x_{k−1} by a
-/// raster position uniform over the whole image, earlier vertices by sampling the BSDF at
+/// raster position uniform over the whole image from the path's eye vertex (module doc,
+/// "Cameras"; the eye vertex's own density is 1), earlier vertices by sampling the BSDF at
 /// x_{i+1}.
 pub fn pdf_eye_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
     let k = path.len() - 1;
@@ -516,7 +567,7 @@ pub fn pdf_eye_step(scene: &Scene, x: &Vertex, v: &Vertex, before: Option<&Verte
     }
     let Some(before) = before else {
         let pixels = scene.camera.pixel_count() as f32;
-        return camera_factor(scene, x).map_or(0.0, |(_, c)| c / pixels);
+        return camera_factor(scene, x, v).map_or(0.0, |(_, c)| c / pixels);
     };
     if !v.is_surface() {
         return 0.0;

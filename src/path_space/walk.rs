@@ -1,5 +1,5 @@
 //! Sub-path sampling as in bidirectional path tracing [Veach 1997, §10.2]: light sub-paths
-//! grow from a point on a light, eye sub-paths from the pinhole, each vertex drawn with exactly
+//! grow from a point on a light, eye sub-paths from the camera, each vertex drawn with exactly
 //! the density that [`pdf_light_side`] / [`pdf_eye_side`] report, and path-tracing samples of
 //! whole paths for the normalisation B and the chains' first states.
 
@@ -134,7 +134,7 @@ pub fn extend_light_side(scene: &Scene, path: &mut Vec<Vertex>, n: usize, rng: &
 }
 
 /// Appends `n` eye-side vertices to `rev`, an eye sub-path stored from the eye (`rev[0]` is
-/// the pinhole): the first by a raster position uniform over the image, then by BSDF sampling.
+/// the eye vertex): the first by a raster position uniform over the image, then by BSDF sampling.
 pub fn extend_eye_side(scene: &Scene, rev: &mut Vec<Vertex>, n: usize, rng: &mut Rng) -> bool {
     for _ in 0..n {
         match step_eye(scene, rev, rng) {
@@ -152,7 +152,7 @@ fn step_eye(scene: &Scene, rev: &mut [Vertex], rng: &mut Rng) -> Option<Vertex> 
         1 => {
             let cam = &scene.camera;
             let raster = rng.uniform2() * Vec2::new(cam.width as f32, cam.height as f32);
-            trace_eye(scene, &cam.generate_ray(raster))
+            first_eye_vertex(scene, &mut rev[0], raster)
         }
         len if rev[len - 1].on_surface() => {
             let step = scatter(scene, rev, TransportMode::Radiance, rng)?;
@@ -160,6 +160,20 @@ fn step_eye(scene: &Scene, rev: &mut [Vertex], rng: &mut Rng) -> Option<Vertex> 
         }
         _ => None,
     }
+}
+
+/// The first vertex the eye vertex `eye` sees through raster position `raster` ([`trace_eye`]
+/// of the camera ray from `eye`'s lens point). An orthographic camera's ray leaves the film
+/// point of `raster`, which becomes `eye`'s position, and the environment it reaches straight
+/// ahead is specular in the path (a delta in direction at both ends; module doc of
+/// [`crate::path_space`], "Cameras").
+pub fn first_eye_vertex(scene: &Scene, eye: &mut Vertex, raster: Vec2) -> Option<Vertex> {
+    let cam = &scene.camera;
+    let ray = cam.ray_from(raster, eye.p);
+    eye.p = ray.o;
+    let mut v = trace_eye(scene, &ray)?;
+    v.delta |= v.is_at_infinity() && cam.is_orthographic();
+    Some(v)
 }
 
 /// [`trace_eye`] leaving vertex `v` in unit direction `d`.
@@ -212,7 +226,7 @@ pub fn join(light: &[Vertex], rev: &[Vertex]) -> Vec<Vertex> {
 /// power heuristic between the two techniques [Veach 1997, §9.2]. `emit(path, c)` receives
 /// each path with c = w f / p, so that E[Σ c] = ∫ f dμ = B (per channel).
 pub fn path_tracing_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit: &mut impl FnMut(&[Vertex], Vec3)) {
-    let mut rev = vec![Vertex::eye(scene)];
+    let mut rev = vec![Vertex::eye(scene, rng)];
     // The eye walk's own factors, kept as it grows so that each path it emits costs O(1) model
     // evaluations instead of re-evaluating the whole path (O(k²) per sample). With z = rev[m−1]
     // its last vertex, a path X = (x₀, z, rev[m−2], …, eye) of k = m edges has
@@ -229,7 +243,7 @@ pub fn path_tracing_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit:
         let m = rev.len();
         let (eye_f_before, eye_p_before) = (eye_f, eye_p);
         if m == 2 {
-            let Some((_, c)) = camera_factor(scene, &rev[1]) else {
+            let Some((_, c)) = camera_factor(scene, &rev[1], &rev[0]) else {
                 return;
             };
             eye_f = Vec3::splat(c);
@@ -297,5 +311,6 @@ fn weigh(scene: &Scene, path: &[Vertex], f: Vec3, eye_part: f64, nee: bool, emit
 
 /// Raster position of a path's last edge.
 pub fn raster_of(scene: &Scene, path: &[Vertex]) -> Option<Vec2> {
-    camera_factor(scene, &path[path.len() - 2]).map(|(r, _)| r)
+    let k = path.len() - 1;
+    camera_factor(scene, &path[k - 1], &path[k]).map(|(r, _)| r)
 }

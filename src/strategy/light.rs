@@ -1,5 +1,5 @@
 //! `kind = "light"`: light tracing — particle tracing from the lights with every non-specular
-//! vertex connected to the pinhole and splatted where it lands on the image [Veach 1997,
+//! vertex connected to the camera and splatted where it lands on the image [Veach 1997,
 //! §10.2, the s ≥ 1, t = 1 techniques; Arvo & Kirk 1990]. It is the estimator that sees
 //! caustics on diffuse surfaces directly, and the `t = 1` half of bidirectional path tracing.
 //!
@@ -7,11 +7,13 @@
 //! [`crate::path_space::pdf_light_side`] (a light ∝ power, a point uniform on it, cosine
 //! emission, then BSDF sampling in importance mode). Its ratio
 //! A_i = Le(x₀→x₁) G(x₀,x₁) Π_{j=1}^{i−1} f_s(x_j) G(x_j,x_{j+1}) / Π_{j=0}^{i} p(x_j) is kept
-//! incrementally; joining x_i to the pinhole x_e gives the path X = (x₀ … x_i, x_e) with
-//! f(X) / p(X) = A_i f_s(x_{i−1}→x_i→x_e) C(x_i) [Veach 1997, eq. (10.8) with t = 1], where
-//! C = du/dA is the camera factor of [`crate::path_space::camera_factor`] (pixel area 1), and
-//! x₀ seen directly gives Le(x₀→x_e) C(x₀) / p(x₀). With N light paths, pixel j's value is
-//! (1/N) Σ of the f/p that land in it.
+//! incrementally; joining x_i to the eye x_e (the pinhole, a point drawn uniformly on a thin
+//! lens, the film point behind x_i for an orthographic camera: [`crate::path_space`],
+//! "Cameras") gives the path X = (x₀ … x_i, x_e) with f(X) / p(X) = A_i f_s(x_{i−1}→x_i→x_e)
+//! C(x_i) [Veach 1997, eq. (10.8) with t = 1], where C = du/dA is the camera factor of
+//! [`crate::path_space::camera_factor`] (pixel area 1), and x₀ seen directly gives
+//! Le(x₀→x_e) C(x₀) / p(x₀). With N light paths, pixel j's value is (1/N) Σ of the f/p that
+//! land in it.
 //!
 //! **Decision: what a sample is.** One sample per pixel is N = (pixel count) light paths, so
 //! that `spp` costs about what it costs `path`; each sample's splats form one image, added to
@@ -21,8 +23,10 @@
 //!
 //! **What it cannot see.** A path whose last scattering vertex before the eye is specular
 //! (E S … : a mirror or glass seen directly, a smooth plastic's coating) has no connection to
-//! the pinhole, so light tracing leaves it out (of a plastic it sees the base); scenes with directly visible specular surfaces render darker there (as in
-//! every light tracer; `bdpt` covers them with its other techniques).
+//! the eye, so light tracing leaves it out (of a plastic it sees the base); scenes with
+//! directly visible specular surfaces render darker there (as in every light tracer; `bdpt`
+//! covers them with its other techniques). Nor does the environment seen straight through an
+//! orthographic camera (a delta in direction at both ends of the edge): it stays black.
 //!
 //! Russian roulette after `rr_depth` scattering events continues with q = min(0.95, Y(A_i) /
 //! Y(A_1)), the luminance of the throughput relative to what left the light.
@@ -32,7 +36,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::params::{Params, Range};
 use crate::path_space::{
-    Vertex, camera_factor, emitted, geometry, pdf_light_side, scattering, visible,
+    Vertex, camera_factor, emitted, eye_toward, geometry, pdf_light_side, scattering, visible,
     walk::{extend_light_side, sample_light_vertex},
 };
 use crate::sampling::{Rng, stream};
@@ -92,10 +96,10 @@ impl LightTracing {
         if !x.connectible() {
             return;
         }
-        let Some((raster, c)) = camera_factor(scene, x) else {
+        let eye = eye_toward(scene, x, &Vertex::eye(scene, rng));
+        let Some((raster, c)) = camera_factor(scene, x, &eye) else {
             return;
         };
-        let eye = Vertex::eye(scene);
         self.connections.fetch_add(1, Relaxed);
         let value = if sub.len() == 1 {
             emitted(scene, &[*x, eye]) * c / pdf_light_side(scene, sub, 0)

@@ -73,14 +73,6 @@ pub trait Strategy: Send + Sync {
         false
     }
 
-    /// Whether the strategy renders a thin-lens or orthographic camera (Mitsuba's `thinlens`
-    /// and `orthographic` sensors): strategies whose eye paths start from
-    /// [`crate::camera::Camera::sample_ray`] do; those whose camera is a vertex of path space
-    /// (a pinhole) refuse such a scene ([`check_scene`]).
-    fn handles_lens_camera(&self) -> bool {
-        false
-    }
-
     /// Whether the strategy renders models with a delta lobe beside a non-delta one (Mitsuba's
     /// smooth `plastic`), i.e. treats each sample's `delta` flag rather than the surface's
     /// class. The others refuse such a scene ([`check_scene`]).
@@ -142,18 +134,6 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
             strategy.kind(),
             m.name,
             able(|s| s.handles_mixed_delta()).join(", ")
-        );
-    }
-    if !scene.camera.is_pinhole() && !strategy.handles_lens_camera() {
-        crate::bail!(
-            "{}: strategy `{}` does not render a {} camera (the scene's sensor) yet; strategies that do: {}",
-            scene.source.display(),
-            strategy.kind(),
-            match scene.camera.lens {
-                crate::camera::Lens::Orthographic { .. } => "orthographic",
-                _ => "thin-lens",
-            },
-            able(|s| s.handles_lens_camera()).join(", ")
         );
     }
     if scene.environment.is_some() && !strategy.handles_environment() {

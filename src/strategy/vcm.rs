@@ -365,12 +365,12 @@ mod tests {
     use crate::path_space::{camera_factor, geometry, light_throughput, pdf_eye_side, pdf_light_side};
     use crate::photon::test_scenes::emitting_box;
 
-    /// α_E(t−1) of eye sub-path `z` (z₀ the pinhole) from the whole path, the reference for
+    /// α_E(t−1) of eye sub-path `z` (z₀ the eye vertex) from the whole path, the reference for
     /// [`EyeCache::alpha`]: its f / p per pixel up to z_{t−1}, C(z₁) Π f_s G / (N Π p_E).
     fn eye_alpha(scene: &Scene, z: &[Vertex], t: usize) -> Vec3 {
         let rev: Vec<Vertex> = z[..t].iter().rev().copied().collect();
         let k = t - 1;
-        let Some((_, c)) = camera_factor(scene, &rev[k - 1]) else {
+        let Some((_, c)) = camera_factor(scene, &rev[k - 1], &rev[k]) else {
             return Vec3::ZERO;
         };
         let mut f = Vec3::splat(c);

@@ -77,7 +77,7 @@ impl Importons {
                 let (mut caustic, mut global) = (Vec::new(), Vec::new());
                 for i in b * BLOCK..((b + 1) * BLOCK).min(paths) {
                     let mut rng = Rng::for_task(seed, [crate::sampling::stream::IMPORTON, i, 0]);
-                    let mut rev = vec![Vertex::eye(scene)];
+                    let mut rev = vec![Vertex::eye(scene, &mut rng)];
                     if !extend_eye_to_diffuse(scene, &mut rev, max_edges, &mut rng) {
                         continue;
                     }

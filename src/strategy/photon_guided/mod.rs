@@ -261,10 +261,6 @@ impl Strategy for PhotonGuided {
         true
     }
 
-    fn handles_lens_camera(&self) -> bool {
-        true
-    }
-
     fn handles_point_lights(&self) -> bool {
         self.params.direct != Direct::Bsdf
     }

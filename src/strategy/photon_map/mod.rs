@@ -275,10 +275,6 @@ impl Strategy for PhotonMapStrategy {
         true
     }
 
-    fn handles_lens_camera(&self) -> bool {
-        true
-    }
-
     fn handles_point_lights(&self) -> bool {
         true
     }

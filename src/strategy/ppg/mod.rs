@@ -331,10 +331,6 @@ impl Strategy for Ppg {
         true
     }
 
-    fn handles_lens_camera(&self) -> bool {
-        true
-    }
-
     fn handles_point_lights(&self) -> bool {
         true
     }

@@ -429,10 +429,6 @@ macro_rules! progressive_strategy {
                 true
             }
 
-            fn handles_lens_camera(&self) -> bool {
-                true
-            }
-
             fn handles_point_lights(&self) -> bool {
                 true
             }
