@@ -71,7 +71,7 @@ impl Renderer<'_> {
             let hit = scene.intersect(&ray)?;
             let bsdf = scene.bsdf(&hit);
             if bsdf.is_delta() {
-                ray = delta_bounce(&hit, &bsdf, hit.frame.to_local(-ray.d), rng)?.0;
+                ray = bsdf_bounce(&hit, &bsdf, hit.frame.to_local(-ray.d), rng)?.0;
                 continue;
             }
             let Some(Bsdf::Lambertian(_)) = bsdf.seen_from(hit.frame.to_local(-ray.d)) else {

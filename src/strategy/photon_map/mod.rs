@@ -89,7 +89,7 @@ mod irradiance_cache;
 
 use counters::AtomicCounters;
 pub use counters::PhotonMapCounters;
-use final_gather::{Renderer, delta_bounce, side_normal};
+use final_gather::{Renderer, bsdf_bounce, side_normal};
 
 use super::Declared;
 use super::{Figure, Phase, Strategy, render_pixels};
