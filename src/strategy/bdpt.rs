@@ -217,6 +217,10 @@ impl Strategy for Bdpt {
         true
     }
 
+    fn handles_lens_camera(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

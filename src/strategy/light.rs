@@ -171,6 +171,10 @@ impl Strategy for LightTracing {
         true
     }
 
+    fn handles_lens_camera(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

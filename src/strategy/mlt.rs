@@ -92,6 +92,10 @@ impl Strategy for Mlt {
         true
     }
 
+    fn handles_lens_camera(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         Self::KIND
     }

@@ -73,6 +73,15 @@ pub trait Strategy: Send + Sync {
         false
     }
 
+    /// Whether the strategy renders a thin-lens or orthographic camera (Mitsuba's `thinlens`
+    /// and `orthographic` sensors): eye paths from [`crate::camera::Camera::sample_ray`] or,
+    /// in path space, the camera vertex of [`crate::path_space`] ("Cameras"). A strategy that
+    /// generates camera rays any other way refuses such a scene ([`check_scene`]) rather than
+    /// render it as through a pinhole.
+    fn handles_lens_camera(&self) -> bool {
+        false
+    }
+
     /// Whether the strategy renders models with a delta lobe beside a non-delta one (Mitsuba's
     /// smooth `plastic`), i.e. treats each sample's `delta` flag rather than the surface's
     /// class. The others refuse such a scene ([`check_scene`]).
@@ -134,6 +143,18 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
             strategy.kind(),
             m.name,
             able(|s| s.handles_mixed_delta()).join(", ")
+        );
+    }
+    if !matches!(scene.camera.lens, crate::camera::Lens::Pinhole) && !strategy.handles_lens_camera() {
+        crate::bail!(
+            "{}: strategy `{}` does not render a {} camera (the scene's sensor) yet; strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            match scene.camera.lens {
+                crate::camera::Lens::Orthographic { .. } => "orthographic",
+                _ => "thin-lens",
+            },
+            able(|s| s.handles_lens_camera()).join(", ")
         );
     }
     if scene.environment.is_some() && !strategy.handles_environment() {

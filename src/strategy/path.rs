@@ -116,6 +116,10 @@ impl Strategy for Path {
         true
     }
 
+    fn handles_lens_camera(&self) -> bool {
+        true
+    }
+
     fn handles_environment(&self) -> bool {
         true
     }

@@ -89,11 +89,9 @@ impl Importons {
                         continue;
                     };
                     rev.push(hit);
-                    if extend_eye_to_diffuse(scene, &mut rev, 2 * max_edges, &mut rng)
-                        && let Some(ip) = importon(scene, &rev)
-                    {
-                        global.push(ip);
-                    }
+                    follow_gather(scene, &mut rev, 2 * max_edges, &mut rng, |rev| {
+                        global.extend(importon(scene, rev));
+                    });
                 }
                 (caustic, global)
             })
@@ -196,6 +194,38 @@ pub fn surface_area_in_ball(
         }
     }
     std::f64::consts::PI * (r as f64).powi(2) * sum / probes as f64
+}
+
+/// Follows a gather ray's eye sub-path `rev` as the final gather does (keeping at most
+/// `max_vertices` vertices), calling `read` wherever it reads the global map: through specular
+/// bounces to the next surface that is not purely specular, read there; at a smooth plastic the
+/// gather reads the map with probability 1 − P_δ and weight 1 / (1 − P_δ), once per landing in
+/// expectation, so `read` is called at every landing, and the walk goes on through the coating
+/// with probability P_δ (its lobe, sampled from the model, as the gather samples it).
+fn follow_gather(
+    scene: &Scene,
+    rev: &mut Vec<Vertex>,
+    max_vertices: usize,
+    rng: &mut Rng,
+    mut read: impl FnMut(&[Vertex]),
+) {
+    loop {
+        if !extend_eye_to_diffuse(scene, rev, max_vertices, rng) {
+            return;
+        }
+        read(rev);
+        let n = rev.len();
+        if !rev[n - 1].mixed || n >= max_vertices {
+            return;
+        }
+        let Some(step) = scatter(scene, rev, TransportMode::Radiance, rng).filter(|s| s.delta) else {
+            return;
+        };
+        match trace_from(scene, &rev[n - 1], step.wi) {
+            Some(v) => rev.push(v),
+            None => return,
+        }
+    }
 }
 
 /// An importon at the last vertex of an eye sub-path, if it is diffuse: unit "power", the

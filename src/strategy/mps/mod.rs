@@ -11,9 +11,11 @@
 //! **Storage points** [Fan et al. 2005, §3.2]: a path L (D|S)* D S* D S* E stores a photon in
 //! the global map at its second diffuse vertex counted from the eye (where final-gather rays
 //! land); a path L S+ D S* E stores one in the caustic map at its first diffuse vertex from the
-//! eye; other paths (L D S* E: direct light, L S* E) store nothing. The photon records the
-//! incoming direction and the light sub-path's flux density f_map(X_map) = Le G Π f_s G up to
-//! the storage point. Every step stores the current path with weight 1 − a and the candidate
+//! eye; other paths (L D S* E: direct light, L S* E) store nothing. "Diffuse" follows the
+//! renderer at a smooth plastic: the camera path shades there whichever lobe the path took, a
+//! gather ray goes on through its coating when it samples it ([`storage_point`]). The photon
+//! records the incoming direction and the light sub-path's flux density f_map(X_map) =
+//! Le G Π f_s G up to the storage point. Every step stores the current path with weight 1 − a and the candidate
 //! with weight a (expected values, as in MLT); weights landing on the storage point and
 //! incoming direction of the photon being accumulated add to it instead of making a new photon
 //! (the paper's repeated paths). `merge_chains` (default true) applies the same rule across
@@ -263,6 +265,14 @@ impl Strategy for Mps {
     }
 
     fn handles_directional_lights(&self) -> bool {
+        true
+    }
+
+    fn handles_mixed_delta(&self) -> bool {
+        true
+    }
+
+    fn handles_lens_camera(&self) -> bool {
         true
     }
 

@@ -7,7 +7,7 @@ use super::*;
 use crate::bsdf::SurfaceKind;
 use crate::color::luminance;
 use crate::metropolis::{State, incoming};
-use crate::path_space::{Vertex, first_diffuse_from_eye, light_throughput, pdf_eye_side};
+use crate::path_space::{Vertex, light_throughput, pdf_eye_side};
 use crate::photon::{Photon, flags};
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
@@ -29,10 +29,20 @@ pub enum Map {
 }
 
 /// The storage point of a path (see the module doc), if it has one.
+///
+/// The final gather's camera path stops at the first surface that is not purely specular, x_d,
+/// whatever lobe the path took there: a smooth plastic whose coating the path took is still
+/// where the renderer shades, reads the caustic map and sends gather rays (which sample the
+/// whole model, coating included). So x_d is the first vertex from the eye that is not purely
+/// specular, the global map's point the next vertex toward the light whose lobe is not a
+/// delta (a gather ray goes on through a coating, [`super::super::photon_map`]'s final
+/// gather), and a path that reaches x_d through its coating straight from the light through
+/// delta lobes only stores nothing: the gather ray counts that light itself.
 pub fn storage_point(scene: &Scene, path: &[Vertex]) -> Option<(Map, usize, u8)> {
     let diffuse = |v: &Vertex| !v.delta && v.bsdf(scene).kind() == SurfaceKind::Diffuse;
-    let d = first_diffuse_from_eye(path)?;
-    if !diffuse(&path[d]) {
+    let k = path.len() - 1;
+    let d = (1..k).rev().find(|&i| path[i].can_end_connection())?;
+    if path[d].bsdf(scene).kind() != SurfaceKind::Diffuse {
         return None;
     }
     let s = (0..d).rev().find(|&i| !path[i].delta)?;
@@ -48,7 +58,7 @@ pub fn storage_point(scene: &Scene, path: &[Vertex]) -> Option<(Map, usize, u8)>
             }
         }
         Some((Map::Global, s, f))
-    } else if d >= 2 {
+    } else if d >= 2 && !path[d].delta {
         Some((Map::Caustic, d, flags::CAUSTIC | flags::INDIRECT))
     } else {
         None

@@ -257,6 +257,10 @@ impl Strategy for PhotonGuided {
         true
     }
 
+    fn handles_lens_camera(&self) -> bool {
+        true
+    }
+
     fn handles_environment(&self) -> bool {
         true
     }

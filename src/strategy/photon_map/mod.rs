@@ -271,6 +271,10 @@ impl Strategy for PhotonMapStrategy {
         true
     }
 
+    fn handles_lens_camera(&self) -> bool {
+        true
+    }
+
     fn handles_environment(&self) -> bool {
         true
     }

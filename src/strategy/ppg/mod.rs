@@ -327,6 +327,10 @@ impl Strategy for Ppg {
         true
     }
 
+    fn handles_lens_camera(&self) -> bool {
+        true
+    }
+
     fn handles_environment(&self) -> bool {
         true
     }

@@ -429,6 +429,10 @@ macro_rules! progressive_strategy {
                 true
             }
 
+            fn handles_lens_camera(&self) -> bool {
+                true
+            }
+
             fn handles_point_lights(&self) -> bool {
                 true
             }
