@@ -6,10 +6,8 @@
 
 mod agreement;
 
-use agreement::{assert_refused, load_text as load, region_mean, render_image};
+use agreement::{assert_refused, block_means, block_sees, judge_blocks, load_text as load, render_image};
 use photon_bench::camera::Lens;
-use photon_bench::film::Image;
-use photon_bench::scene::Scene;
 use photon_bench::scene::load::load_scene_with_stats;
 
 /// A 1 × 1.5 emitting quad facing the camera 3 units away, in front of a grey wall.
@@ -183,39 +181,6 @@ emission = {{ radiance = [6, 6, 6] }}
 const THIN: &str = "lens = { type = \"thin\", aperture_radius = 0.15, focus_distance = 3 }";
 const ORTHOGRAPHIC: &str = "lens = { type = \"orthographic\", height = 2.4 }";
 
-/// The blocks of 3 × 3 pixels of `scene`'s image, row by row.
-fn blocks(scene: &Scene) -> Vec<Vec<(u32, u32)>> {
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    (0..h)
-        .step_by(3)
-        .flat_map(|by| {
-            (0..w)
-                .step_by(3)
-                .map(move |bx| (by..by + 3).flat_map(|y| (bx..bx + 3).map(move |x| (x, y))).collect())
-        })
-        .collect()
-}
-
-/// Per block, the mean of r + g + b over 6 seeds of `kind` at `spp` and its standard error.
-fn block_means(scene: &Scene, kind: &str, spp: u32) -> Vec<(f64, f64)> {
-    let images: Vec<Image> = (0..6)
-        .map(|seed| render_image(scene, kind, "max_depth = 6", spp, seed))
-        .collect();
-    blocks(scene).iter().map(|b| region_mean(&images, b)).collect()
-}
-
-/// Whether an orthographic camera sees the sky straight ahead through any point of an 8 × 8
-/// grid over `block`.
-fn sees_the_sky(scene: &Scene, block: &[(u32, u32)]) -> bool {
-    let grid = |i: u32| (i as f32 + 0.5) / 8.0;
-    block.iter().any(|&(x, y)| {
-        (0..64).any(|j| {
-            let raster = glam::Vec2::new(x as f32 + grid(j % 8), y as f32 + grid(j / 8));
-            scene.intersect(&scene.camera.generate_ray(raster)).is_none()
-        })
-    })
-}
-
 /// The strategies built on path space render a thin lens and an orthographic camera as `path`
 /// does (its eye rays are the cameras' definition): block by block (3 × 3 pixels, 6 seeds)
 /// within 4 standard errors (plus 1 % for `vcm`'s merging) wherever a block is precise enough
@@ -231,36 +196,21 @@ fn path_space_strategies_render_lenses_as_path() {
     let dir = tempfile::tempdir().unwrap();
     for lens in [THIN, ORTHOGRAPHIC] {
         let scene = load(dir.path(), "outdoor.toml", &outdoor(lens)).unwrap();
-        let reference = block_means(&scene, "path", 512);
-        let blocks = blocks(&scene);
+        let params = "max_depth = 6";
+        let reference = block_means(&scene, "path", params, 512);
+        let sees_the_sky = |block: &[(u32, u32)]| block_sees(&scene, block, |hit| hit.is_none());
         for (kind, spp, slack) in [
             ("bdpt", 64, 0.0),
             ("light", 1024, 0.0),
             ("vcm", 64, 0.01),
             ("mlt", 4096, 0.0),
         ] {
-            let mut judged = 0;
-            for (b, ((m, se), (m0, se0))) in block_means(&scene, kind, spp)
-                .into_iter()
-                .zip(reference.iter().copied())
-                .enumerate()
-            {
-                // Blocks of sky alone are exact in every strategy that sees them.
-                let tol = 4.0 * (se * se + se0 * se0).sqrt() + (slack + 1e-5) * m0;
-                let blind = kind == "light" && scene.camera.is_orthographic() && sees_the_sky(&scene, &blocks[b]);
-                if tol > 0.1 * m0 || blind {
-                    continue;
-                }
-                judged += 1;
-                assert!(
-                    (m - m0).abs() < tol,
-                    "{lens}: {kind}, block {b}: {m} ± {se} vs path {m0} ± {se0}"
-                );
-            }
-            assert!(judged >= 6, "{lens}: {kind}: only {judged} of 12 blocks judged");
+            judge_blocks(&scene, &reference, (kind, params, spp, slack), |block| {
+                kind == "light" && scene.camera.is_orthographic() && sees_the_sky(block)
+            });
         }
         let mean = |v: &[(f64, f64)]| v.iter().map(|b| b.0).sum::<f64>() / v.len() as f64;
-        let (photons, path) = (mean(&block_means(&scene, "mps", 16)), mean(&reference));
+        let (photons, path) = (mean(&block_means(&scene, "mps", params, 16)), mean(&reference));
         assert!(
             (photons / path - 1.0).abs() < 0.03,
             "{lens}: mps {photons} vs path {path}"

@@ -79,3 +79,76 @@ pub fn region_mean(images: &[Image], pixels: &[(u32, u32)]) -> (f64, f64) {
     let var = per_image.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0);
     (m, (var / n).sqrt())
 }
+
+#[allow(dead_code)]
+/// The pixels of `scene`'s image in blocks of 3 × 3, row by row (the unit the block-by-block
+/// comparisons judge).
+pub fn blocks(scene: &Scene) -> Vec<Vec<(u32, u32)>> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    (0..h)
+        .step_by(3)
+        .flat_map(|by| {
+            (0..w)
+                .step_by(3)
+                .map(move |bx| (by..by + 3).flat_map(|y| (bx..bx + 3).map(move |x| (x, y))).collect())
+        })
+        .collect()
+}
+
+#[allow(dead_code)]
+/// Per block of [`blocks`], the mean of r + g + b over 6 seeds of `kind` with `params` at `spp`
+/// and its standard error.
+pub fn block_means(scene: &Scene, kind: &str, params: &str, spp: u32) -> Vec<(f64, f64)> {
+    let images: Vec<Image> = (0..6)
+        .map(|seed| render_image(scene, kind, params, spp, seed))
+        .collect();
+    blocks(scene).iter().map(|b| region_mean(&images, b)).collect()
+}
+
+#[allow(dead_code)]
+/// Whether the primary ray through any point of an 8 × 8 grid over any pixel of `block` meets
+/// `what` (its first hit, `None` where it leaves the scene).
+pub fn block_sees(
+    scene: &Scene,
+    block: &[(u32, u32)],
+    what: impl Fn(Option<photon_bench::scene::SurfaceHit>) -> bool,
+) -> bool {
+    let grid = |i: u32| (i as f32 + 0.5) / 8.0;
+    block.iter().any(|&(x, y)| {
+        (0..64).any(|j| {
+            let raster = glam::Vec2::new(x as f32 + grid(j % 8), y as f32 + grid(j / 8));
+            what(scene.intersect(&scene.camera.generate_ray(raster)))
+        })
+    })
+}
+
+#[allow(dead_code)]
+/// Judges `kind` at `spp` against `reference` (its [`block_means`]) block by block: within 4
+/// standard errors plus `slack` × the reference, wherever that tolerance is under 10 % of the
+/// block's value and `skip` does not exclude the block; at least 6 blocks must be judged.
+pub fn judge_blocks(
+    scene: &Scene,
+    reference: &[(f64, f64)],
+    (kind, params, spp, slack): (&str, &str, u32, f64),
+    skip: impl Fn(&[(u32, u32)]) -> bool,
+) {
+    let blocks = blocks(scene);
+    let mut judged = 0;
+    for (b, ((m, se), (m0, se0))) in block_means(scene, kind, params, spp)
+        .into_iter()
+        .zip(reference.iter().copied())
+        .enumerate()
+    {
+        // Blocks that are exact in every strategy (a constant sky) are judged to 10⁻⁵.
+        let tol = 4.0 * (se * se + se0 * se0).sqrt() + (slack + 1e-5) * m0;
+        if tol > 0.1 * m0 || skip(&blocks[b]) {
+            continue;
+        }
+        judged += 1;
+        assert!(
+            (m - m0).abs() < tol,
+            "{kind}, block {b}: {m} ± {se} vs reference {m0} ± {se0}"
+        );
+    }
+    assert!(judged >= 6, "{kind}: only {judged} of {} blocks judged", blocks.len());
+}
