@@ -198,9 +198,10 @@ fn mps_renders_delta_and_environment_light() {
 /// holds the flux photon tracing stores (within 5 %: photons are stored at a plastic with all
 /// the flux that arrives, whatever lobe comes next) and the image is within 6 % of `bdpt`'s,
 /// with the spheres' bases as shipped and with dark bases, where the coatings carry the
-/// spheres. (The 6 %: on this geometry MPS reads −3.4 % against `bdpt` with diffuse spheres
-/// too, while `photon_map` reads +2.8 %; one seed is not enough: single runs spread by ±3 % in
-/// flux and ±6 % in image mean.)
+/// spheres. (The 6 %: at this tiny size and budget MPS reads −3.4 % against `bdpt` with
+/// diffuse spheres too, while `photon_map` reads +2.8 %; at the scene's 128 × 128 both read
+/// about +1 %, docs/user-guide.md. One seed is not enough: single runs spread by ±3 % in flux
+/// and ±6 % in image mean.)
 #[test]
 fn mps_renders_smooth_plastic() {
     for dark in [false, true] {
