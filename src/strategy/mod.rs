@@ -45,6 +45,45 @@ pub struct Phase {
     pub seconds: f64,
 }
 
+/// What a strategy renders beyond area lights, pinhole cameras and the models every strategy
+/// takes; a scene holding anything it does not is refused in one line ([`check_scene`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Capabilities {
+    /// Light from infinitely far away (a scene's `environment`: Mitsuba's `constant` and
+    /// `envmap`).
+    pub environment: bool,
+    /// Point and spot lights (positional `delta_lights`), which only next-event estimation or
+    /// paths starting on them can reach.
+    pub point_lights: bool,
+    /// Directional light (parallel light from infinitely far away).
+    pub directional_lights: bool,
+    /// Thin-lens and orthographic cameras (Mitsuba's `thinlens` and `orthographic` sensors):
+    /// eye paths from [`crate::camera::Camera::sample_ray`] or, in path space, the camera
+    /// vertex of [`crate::path_space`] ("Cameras"); a strategy that makes camera rays any other
+    /// way would render a lens as a pinhole.
+    pub lens_camera: bool,
+    /// Models with a delta lobe beside a non-delta one (Mitsuba's smooth `plastic`): the
+    /// strategy treats each sample's `delta` flag rather than the surface's class.
+    pub mixed_delta: bool,
+}
+
+impl Capabilities {
+    pub const NONE: Self = Self {
+        environment: false,
+        point_lights: false,
+        directional_lights: false,
+        lens_camera: false,
+        mixed_delta: false,
+    };
+    pub const ALL: Self = Self {
+        environment: true,
+        point_lights: true,
+        directional_lights: true,
+        lens_camera: true,
+        mixed_delta: true,
+    };
+}
+
 /// A light-transport algorithm under test.
 pub trait Strategy: Send + Sync {
     /// The `kind` of the strategy, as in experiment files.
@@ -53,40 +92,31 @@ pub trait Strategy: Send + Sync {
     /// Every parameter with its value, in a fixed order (recorded with every result row).
     fn params(&self) -> Vec<(String, String)>;
 
-    /// Whether the strategy renders light from infinitely far away (a scene's `environment`:
-    /// Mitsuba's `constant` and `envmap`). The others refuse such a scene before anything runs
-    /// ([`check_scene`]) rather than render it without that light.
+    /// What the strategy renders beyond area lights, pinhole cameras and the models every
+    /// strategy takes ([`Capabilities`]); none by default, so that a new strategy is refused
+    /// every scene holding such a feature ([`check_scene`]) until it says it renders it.
+    fn capabilities(&self) -> Capabilities {
+        Capabilities::NONE
+    }
+
     fn handles_environment(&self) -> bool {
-        false
+        self.capabilities().environment
     }
 
-    /// Whether the strategy renders point and spot lights (a scene's positional
-    /// `delta_lights`), which only next-event estimation or paths starting on them can reach.
-    /// The others refuse such a scene ([`check_scene`]).
     fn handles_point_lights(&self) -> bool {
-        false
+        self.capabilities().point_lights
     }
 
-    /// Whether the strategy renders directional light (parallel light from infinitely far
-    /// away). The others refuse such a scene ([`check_scene`]).
     fn handles_directional_lights(&self) -> bool {
-        false
+        self.capabilities().directional_lights
     }
 
-    /// Whether the strategy renders a thin-lens or orthographic camera (Mitsuba's `thinlens`
-    /// and `orthographic` sensors): eye paths from [`crate::camera::Camera::sample_ray`] or,
-    /// in path space, the camera vertex of [`crate::path_space`] ("Cameras"). A strategy that
-    /// generates camera rays any other way refuses such a scene ([`check_scene`]) rather than
-    /// render it as through a pinhole.
     fn handles_lens_camera(&self) -> bool {
-        false
+        self.capabilities().lens_camera
     }
 
-    /// Whether the strategy renders models with a delta lobe beside a non-delta one (Mitsuba's
-    /// smooth `plastic`), i.e. treats each sample's `delta` flag rather than the surface's
-    /// class. The others refuse such a scene ([`check_scene`]).
     fn handles_mixed_delta(&self) -> bool {
-        false
+        self.capabilities().mixed_delta
     }
 
     /// Work done once per scene and seed before any sample is taken.

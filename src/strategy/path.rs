@@ -112,24 +112,12 @@ impl Declared for Path {
 }
 
 impl Strategy for Path {
-    fn handles_mixed_delta(&self) -> bool {
-        true
-    }
-
-    fn handles_lens_camera(&self) -> bool {
-        true
-    }
-
-    fn handles_environment(&self) -> bool {
-        true
-    }
-
-    fn handles_point_lights(&self) -> bool {
-        self.params.direct != Direct::Bsdf
-    }
-
-    fn handles_directional_lights(&self) -> bool {
-        self.params.direct != Direct::Bsdf
+    fn capabilities(&self) -> crate::strategy::Capabilities {
+        crate::strategy::Capabilities {
+            point_lights: self.params.direct != Direct::Bsdf,
+            directional_lights: self.params.direct != Direct::Bsdf,
+            ..crate::strategy::Capabilities::ALL
+        }
     }
 
     fn kind(&self) -> &'static str {

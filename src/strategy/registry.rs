@@ -209,7 +209,7 @@ pub fn reference_markdown(registry: &Registry) -> String {
 }
 
 /// What each strategy renders beyond area lights and the models every strategy takes, with
-/// its default parameters (the answers of [`Strategy`]'s `handles_*`).
+/// its default parameters (the answers of [`Strategy::capabilities`]).
 fn capabilities_markdown(registry: &Registry) -> String {
     let mut out = String::from(
         "## What each strategy renders

@@ -267,24 +267,8 @@ impl Declared for PhotonMapStrategy {
 }
 
 impl Strategy for PhotonMapStrategy {
-    fn handles_mixed_delta(&self) -> bool {
-        true
-    }
-
-    fn handles_lens_camera(&self) -> bool {
-        true
-    }
-
-    fn handles_environment(&self) -> bool {
-        true
-    }
-
-    fn handles_point_lights(&self) -> bool {
-        true
-    }
-
-    fn handles_directional_lights(&self) -> bool {
-        true
+    fn capabilities(&self) -> crate::strategy::Capabilities {
+        crate::strategy::Capabilities::ALL
     }
 
     fn figures(&self, scene: &Scene, seed: u64) -> Vec<Figure> {

@@ -323,24 +323,8 @@ impl Ppg {
 }
 
 impl Strategy for Ppg {
-    fn handles_mixed_delta(&self) -> bool {
-        true
-    }
-
-    fn handles_lens_camera(&self) -> bool {
-        true
-    }
-
-    fn handles_environment(&self) -> bool {
-        true
-    }
-
-    fn handles_point_lights(&self) -> bool {
-        true
-    }
-
-    fn handles_directional_lights(&self) -> bool {
-        true
+    fn capabilities(&self) -> crate::strategy::Capabilities {
+        crate::strategy::Capabilities::ALL
     }
 
     fn kind(&self) -> &'static str {

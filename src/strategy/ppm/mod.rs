@@ -421,24 +421,8 @@ macro_rules! progressive_strategy {
                 Self::KIND
             }
 
-            fn handles_environment(&self) -> bool {
-                true
-            }
-
-            fn handles_mixed_delta(&self) -> bool {
-                true
-            }
-
-            fn handles_lens_camera(&self) -> bool {
-                true
-            }
-
-            fn handles_point_lights(&self) -> bool {
-                true
-            }
-
-            fn handles_directional_lights(&self) -> bool {
-                true
+            fn capabilities(&self) -> crate::strategy::Capabilities {
+                crate::strategy::Capabilities::ALL
             }
 
             fn params(&self) -> Vec<(String, String)> {
