@@ -136,6 +136,46 @@ impl Texture {
     }
 }
 
+/// A number that may vary over a surface: Mitsuba's float parameters that take a texture (the
+/// opacity of a `mask`). A colour texture gives its luminance, as Mitsuba's `eval_1` does
+/// (a grey image its grey value).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Scalar {
+    Constant(f32),
+    Texture(Texture),
+}
+
+impl Scalar {
+    /// The value at surface coordinates `uv`.
+    #[inline]
+    pub fn at(&self, uv: Vec2) -> f32 {
+        match self {
+            Scalar::Constant(v) => *v,
+            Scalar::Texture(t) => crate::color::luminance(t.eval(uv)),
+        }
+    }
+
+    /// The smallest and largest values anywhere (a texture's per-texel luminance; bilinear
+    /// filtering stays within them).
+    pub fn range(&self) -> (f32, f32) {
+        match self {
+            Scalar::Constant(v) => (*v, *v),
+            Scalar::Texture(Texture::Checkerboard(c)) => {
+                let (a, b) = (crate::color::luminance(c.color0), crate::color::luminance(c.color1));
+                (a.min(b), a.max(b))
+            }
+            Scalar::Texture(Texture::Bitmap(b)) => {
+                b.texels
+                    .iter()
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &t| {
+                        let l = crate::color::luminance(t);
+                        (lo.min(l), hi.max(l))
+                    })
+            }
+        }
+    }
+}
+
 impl Checkerboard {
     #[inline]
     pub fn eval(&self, uv: Vec2) -> Vec3 {

@@ -27,6 +27,7 @@
 //! - [`RoughDielectric`]: microfacet reflection and refraction, Mitsuba 3's `roughdielectric`.
 //! - [`RoughPlastic`]: a diffuse base under a rough dielectric coating, Mitsuba 3's
 //!   `roughplastic`.
+//! - [`Blend`]: (1 − w) f₀ + w f₁ of two models, Mitsuba 3's `blendbsdf`.
 //!
 //! The microfacet models share [`Microfacet`] (Beckmann and GGX, visible-normal sampling).
 //!
@@ -39,6 +40,7 @@
 //! that knows about scenes, lights or paths (a BSDF sees only directions in its local frame and
 //! its own parameters); colour helpers come from [`crate::color`].
 
+mod blend;
 mod conductor;
 mod dielectric;
 mod diffuse_transmission;
@@ -58,6 +60,7 @@ mod microfacet_tests;
 #[cfg(test)]
 mod tests;
 
+pub use blend::Blend;
 pub use conductor::{Conductor, ConductorIor, RoughConductor, fresnel_conductor, named_conductor_list};
 pub use dielectric::{Dielectric, fresnel_dielectric, refract};
 pub use diffuse_transmission::DiffuseTransmission;
@@ -124,6 +127,8 @@ pub enum Bsdf {
     /// A reflection model that is black when seen from behind (`wo` or `wi` below the shading
     /// plane): Mitsuba 3's sidedness for a BSDF without its `twosided` wrapper.
     OneSided(Box<Bsdf>),
+    /// Two models blended ([`Blend`]); a delta lobe in either makes it [`Bsdf::mixes_delta`].
+    Blend(Box<Blend>),
 }
 
 /// A colour parameter that a texture can drive ([`crate::scene::Material::textures`]).
@@ -135,6 +140,8 @@ pub enum ColorParam {
     DiffuseReflectance,
     /// `specular_reflectance` of conductors, rough dielectrics and rough plastic.
     SpecularReflectance,
+    /// A blend's weight w, the luminance of the texture's colour.
+    Weight,
 }
 
 impl BsdfSample {
@@ -204,6 +211,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.eval(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.eval(wo, wi, mode),
             Bsdf::OneSided(_) => Vec3::ZERO,
+            Bsdf::Blend(b) => b.eval(wo, wi, mode),
         }
     }
 
@@ -222,6 +230,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.pdf(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.pdf(wo, wi),
             Bsdf::OneSided(_) => 0.0,
+            Bsdf::Blend(b) => b.pdf(wo, wi),
         }
     }
 
@@ -243,7 +252,29 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::OneSided(b) if wo.z > 0.0 => b.sample(wo, u, u_lobe, mode).filter(|s| s.wi.z > 0.0),
             Bsdf::OneSided(_) => None,
+            Bsdf::Blend(b) => b.sample(wo, u, u_lobe, mode),
         }
+    }
+
+    /// The delta lobe (or lobes) that turn local `wo` into local `wi`, if any: the coefficient
+    /// (f_s without the delta, [`BsdfSample::f`]) in `mode` and the probability with which
+    /// sampling from `wo` chooses it — summed over a blend's models ([`Blend::delta_lobe`]).
+    pub fn delta_lobe(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<(Vec3, f32)> {
+        if let Bsdf::Blend(b) = self {
+            return b.delta_lobe(wo, wi, mode);
+        }
+        // Every other model has at most two delta lobes, told apart by u_lobe: a mirror's one,
+        // a dielectric's reflection (u_lobe < F) and refraction, a plastic's coating first.
+        for u_lobe in [0.0, 1.0 - f32::EPSILON] {
+            if let Some(s) = self.sample(wo, Vec2::ZERO, u_lobe, mode)
+                && s.delta
+                && s.pdf_w > 0.0
+                && s.wi.dot(wi) > 1.0 - 1e-4
+            {
+                return Some((s.f, s.pdf_w));
+            }
+        }
+        None
     }
 
     /// The model that scatters light leaving along local `wo`: a one-sided model's inner model
@@ -265,6 +296,10 @@ impl Bsdf {
         use ColorParam::*;
         let field = match (self, param) {
             (Bsdf::OneSided(b), _) => return b.set_color(param, c),
+            (Bsdf::Blend(b), Weight) => {
+                b.weight = luminance(c).clamp(0.0, 1.0);
+                return true;
+            }
             (Bsdf::Lambertian(b), Reflectance) => &mut b.reflectance,
             (Bsdf::Mirror(b), Reflectance) => &mut b.reflectance,
             (Bsdf::RoughPlastic(b), DiffuseReflectance) => &mut b.diffuse_reflectance,
@@ -284,6 +319,13 @@ impl Bsdf {
     pub fn kind(&self) -> SurfaceKind {
         match self {
             Bsdf::OneSided(b) => b.kind(),
+            // The richer model's class (a textured weight may give either model the whole
+            // surface somewhere).
+            Bsdf::Blend(b) => match b.bsdfs.each_ref().map(Bsdf::kind) {
+                k if k.contains(&SurfaceKind::Diffuse) => SurfaceKind::Diffuse,
+                k if k.contains(&SurfaceKind::Glossy) => SurfaceKind::Glossy,
+                _ => SurfaceKind::Specular,
+            },
             Bsdf::Lambertian(_) | Bsdf::DiffuseTransmission(_) => SurfaceKind::Diffuse,
             Bsdf::Mirror(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Conductor(_) => {
                 SurfaceKind::Specular
@@ -300,8 +342,10 @@ impl Bsdf {
 
     /// True when the model scatters light to the side opposite `wo` (transmission).
     pub fn is_transmissive(&self) -> bool {
-        if let Bsdf::OneSided(b) = self {
-            return b.is_transmissive();
+        match self {
+            Bsdf::OneSided(b) => return b.is_transmissive(),
+            Bsdf::Blend(b) => return b.bsdfs.iter().any(Bsdf::is_transmissive),
+            _ => {}
         }
         matches!(
             self,
@@ -314,6 +358,7 @@ impl Bsdf {
     pub fn is_anisotropic(&self) -> bool {
         match self {
             Bsdf::OneSided(b) => b.is_anisotropic(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::is_anisotropic),
             Bsdf::Ward(b) => b.alpha_x != b.alpha_y,
             Bsdf::RoughConductor(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             Bsdf::RoughDielectric(b) => b.distribution.alpha_u != b.distribution.alpha_v,
@@ -329,6 +374,12 @@ impl Bsdf {
         match self {
             Bsdf::OneSided(b) => b.mixes_delta(),
             Bsdf::Plastic(b) => has_energy(b.diffuse_reflectance),
+            // A delta lobe in one model beside a non-delta one in either.
+            Bsdf::Blend(b) => {
+                let has_delta = |m: &Bsdf| m.is_delta() || m.mixes_delta();
+                b.bsdfs.iter().any(Bsdf::mixes_delta)
+                    || (b.bsdfs.iter().any(has_delta) && b.bsdfs.iter().any(|m| !m.is_delta()))
+            }
             _ => false,
         }
     }
@@ -340,6 +391,7 @@ impl Bsdf {
             Bsdf::OneSided(b) if wo.z > 0.0 => b.delta_probability(wo),
             Bsdf::OneSided(_) => 0.0,
             Bsdf::Plastic(b) if has_energy(b.diffuse_reflectance) => b.specular_probability(wo.z.abs()),
+            Bsdf::Blend(b) => b.delta_probability(wo),
             b if b.is_delta() => 1.0,
             _ => 0.0,
         }
@@ -370,6 +422,8 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
             Bsdf::Plastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
             Bsdf::OneSided(b) => b.albedo(),
+            // Either model may have the whole surface where a texture drives the weight.
+            Bsdf::Blend(b) => b.bsdfs[0].albedo().max(b.bsdfs[1].albedo()),
         }
     }
 
@@ -482,6 +536,13 @@ impl Bsdf {
                 "one_sided wraps a reflecting model (not a transmitting one, nor another one_sided)",
             )),
             Bsdf::OneSided(b) => b.validate(),
+            Bsdf::Blend(b) => {
+                if !(0.0..=1.0).contains(&b.weight) {
+                    return Err(Error::new(format!("weight must lie in [0, 1], got {}", b.weight)));
+                }
+                b.bsdfs[0].validate()?;
+                b.bsdfs[1].validate()
+            }
         }
     }
 }

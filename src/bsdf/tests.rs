@@ -140,7 +140,31 @@ pub(super) fn non_delta_models() -> Vec<(&'static str, Bsdf)> {
             "roughplastic beckmann 0.3 nonlinear",
             rough_plastic(0.8, 1.49, microfacet(Beckmann, 0.3, 0.3, true), true),
         ),
+        (
+            "blend 0.3 lambertian + roughconductor ggx 0.2",
+            blend(
+                0.3,
+                lambertian(0.8),
+                rough_conductor(None, microfacet(Ggx, 0.2, 0.2, true)),
+            ),
+        ),
+        (
+            "blend 0.6 roughdielectric + diffuse_transmission",
+            blend(
+                0.6,
+                rough_dielectric(1.5, microfacet(Beckmann, 0.3, 0.3, true)),
+                diffuse_transmission(0.2, 0.5),
+            ),
+        ),
     ]
+}
+
+/// (1 − w) `a` + w `b`.
+pub(super) fn blend(w: f32, a: Bsdf, b: Bsdf) -> Bsdf {
+    Bsdf::Blend(Box::new(super::Blend {
+        weight: w,
+        bsdfs: [a, b],
+    }))
 }
 
 /// One scalar channel of a spectrum (all test spectra are grey).

@@ -294,6 +294,12 @@ impl Vertex {
     pub fn bsdf<'a>(&self, scene: &'a Scene) -> Cow<'a, Bsdf> {
         scene.materials[self.material as usize].bsdf_at(|| self.uv)
     }
+
+    /// The opacity α of a surface vertex's material there ([`crate::scene::Material::opacity`]).
+    #[inline]
+    pub fn opacity(&self, scene: &Scene) -> f32 {
+        scene.materials[self.material as usize].opacity_at(|| self.uv)
+    }
 }
 
 /// Unit direction from `a` to `b`, and the squared distance; 1 when either lies at infinity
@@ -389,19 +395,10 @@ fn local_dir(v: &Vertex, w: Vec3) -> Option<Vec3> {
 
 /// The delta lobe of `bsdf` that turns local `wo` into local `wi`, if any: its coefficient
 /// (f_s without the delta, [`crate::bsdf::BsdfSample::f`]) in `mode` and the probability
-/// with which sampling from `wo` chooses it.
+/// with which sampling from `wo` chooses it ([`Bsdf::delta_lobe`]).
+#[inline]
 pub fn delta_lobe(bsdf: &Bsdf, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<(Vec3, f32)> {
-    // Mirrors have one lobe; a dielectric reflects for u_lobe < F and refracts above.
-    for u_lobe in [0.0, 1.0 - f32::EPSILON] {
-        if let Some(s) = bsdf.sample(wo, Vec2::ZERO, u_lobe, mode)
-            && s.delta
-            && s.pdf_w > 0.0
-            && s.wi.dot(wi) > 1.0 - 1e-4
-        {
-            return Some((s.f, s.pdf_w));
-        }
-    }
-    None
+    bsdf.delta_lobe(wo, wi, mode)
 }
 
 /// f_s(x_{i−1} → x_i → x_{i+1}) at surface vertex i (radiance flows from i−1 to i+1).

@@ -220,7 +220,10 @@ fn trace_path(scene: &Scene, params: &TraceParams, seed: u64, index: u64, out: &
 #[derive(Clone, Copy, Debug)]
 pub struct PhotonHit {
     pub p: Vec3,
-    /// Power on arrival, ΔΦ (full precision).
+    /// Power on arrival, ΔΦ (full precision), divided by the surface's opacity α where it is
+    /// masked: the ray found the surface with probability α, and a density estimate needs all
+    /// the light that arrives there, also the light a mask lets through
+    /// ([`crate::scene::Scene::passes_through`]).
     pub power: Vec3,
     /// Unit direction towards where the photon came from.
     pub wi: Vec3,
@@ -336,7 +339,7 @@ pub fn trace_photon_path(
             };
             store(&PhotonHit {
                 p: hit.p,
-                power,
+                power: power / scene.opacity(&hit),
                 wi: wi_world,
                 n: n_side,
                 bounces,

@@ -599,12 +599,52 @@ fn material_xml(
             files,
         )),
         MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
+        MaterialDesc::Mask(m) => {
+            // The nested material as it would stand alone, its id moved to the mask.
+            let inner = material_xml(&m.bsdf, one_sided, id, field, file, files, warnings)?;
+            let inner = indented(&inner.replacen(&format!(" id=\"{id}\""), "", 1));
+            let opacity = scalar_xml("opacity", m.opacity.as_ref(), files);
+            format!("    <bsdf type=\"mask\" id=\"{id}\">\n{opacity}{inner}    </bsdf>\n")
+        }
+        MaterialDesc::Blend(b) => {
+            // Each model as it would stand alone (its own sidedness), without an id.
+            let mut parts = String::new();
+            for (i, m) in b.bsdfs.iter().enumerate() {
+                let part = material_xml(
+                    m,
+                    one_sided,
+                    "part",
+                    &format!("{field}.bsdfs[{i}]"),
+                    file,
+                    files,
+                    warnings,
+                )?;
+                parts += &indented(&part.replacen(" id=\"part\"", "", 1));
+            }
+            format!(
+                "    <bsdf type=\"blendbsdf\" id=\"{id}\">\n{}{parts}    </bsdf>\n",
+                scalar_xml("weight", b.weight.as_ref(), files)
+            )
+        }
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
         MaterialDesc::DiffuseTransmission(_) => {
             return Err(err(field, "diffuse_transmission has no Mitsuba 3 equivalent"));
         }
     };
     Ok(bsdf)
+}
+
+/// A number parameter that may be a texture (absent: Mitsuba's default 0.5, written out).
+fn scalar_xml(name: &str, v: Option<&desc::ScalarDesc>, files: &Files) -> String {
+    match v.unwrap_or(&desc::ScalarDesc::Value(0.5)) {
+        desc::ScalarDesc::Value(v) => format!("{OUTER}<float name=\"{name}\" value=\"{v}\"/>\n"),
+        desc::ScalarDesc::Texture(t) => files.color(name, &Color::Texture(t.clone()), OUTER),
+    }
+}
+
+/// A top-level element's lines moved in by one level, to nest it.
+fn indented(xml: &str) -> String {
+    xml.lines().map(|l| format!("    {l}\n")).collect()
 }
 
 /// A `plastic` or `roughplastic` BSDF (nested in `twosided`): the coating's index, the colours,

@@ -28,7 +28,7 @@ use crate::light::delta::DeltaLight;
 use crate::light::environment::Environment;
 use crate::light::{AreaLight, Emission};
 use crate::sampling::Distribution1D;
-use crate::texture::Texture;
+use crate::texture::{Scalar, Texture};
 use glam::{Mat3, Vec2, Vec3};
 use light_selection::Emitter;
 use std::borrow::Cow;
@@ -44,6 +44,9 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Parameters driven by textures, replaced in `bsdf` at every hit ([`Material::bsdf_at`]).
     pub textures: Vec<(ColorParam, Texture)>,
+    /// Mitsuba's `mask`: the probability α in (0, 1] that light meeting the surface scatters by
+    /// `bsdf` rather than passing straight through ([`Scene::intersect`]); `None` is opaque.
+    pub opacity: Option<Scalar>,
 }
 
 impl Material {
@@ -53,6 +56,7 @@ impl Material {
             name: name.into(),
             bsdf,
             textures: Vec::new(),
+            opacity: None,
         }
     }
 
@@ -69,6 +73,22 @@ impl Material {
             bsdf.set_color(*param, texture.eval(uv));
         }
         Cow::Owned(bsdf)
+    }
+
+    /// The opacity α at surface coordinates `uv` (computed only for a textured mask): 1 without
+    /// a mask.
+    #[inline]
+    pub fn opacity_at(&self, uv: impl FnOnce() -> Vec2) -> f32 {
+        match &self.opacity {
+            None => 1.0,
+            Some(Scalar::Constant(a)) => *a,
+            Some(a) => a.at(uv()),
+        }
+    }
+
+    /// Whether anything about the material varies with (u, v).
+    fn is_textured(&self) -> bool {
+        !self.textures.is_empty() || matches!(self.opacity, Some(Scalar::Texture(_)))
     }
 }
 
@@ -146,6 +166,8 @@ pub struct Scene {
     pub accel: Accel,
     /// The bounding box of every primitive, computed once ([`Scene::bounds`]).
     bounds: (Vec3, Vec3),
+    /// Whether some material has an opacity mask (only then do rays test opacity).
+    masked: bool,
 }
 
 /// The emitters that are not shapes: at most one environment and any number of delta lights.
@@ -168,6 +190,21 @@ pub struct SurfaceHit {
     pub material: u32,
     /// Barycentrics (b₁, b₂) of a triangle hit (zero for spheres), for texture coordinates.
     pub bary: Vec2,
+}
+
+/// A uniform number in [0, 1) from the bits of a point and a direction (SplitMix64's finaliser
+/// over each coordinate): the choice of [`Scene::passes_through`].
+#[inline]
+fn opacity_sample(p: Vec3, d: Vec3) -> f32 {
+    let mix = |mut z: u64| {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    let h = [p.x, p.y, p.z, d.x, d.y, d.z]
+        .iter()
+        .fold(0x9e37_79b9_7f4a_7c15u64, |h, x| mix(h ^ u64::from(x.to_bits())));
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
 
 /// Smallest barycentric coordinate of a triangle hit point, 2⁻¹⁶: about 256 ULPs of the
@@ -265,6 +302,7 @@ impl Scene {
             )
         };
         let accel = Accel::build(&primitives);
+        let masked = materials.iter().any(|m| m.opacity.is_some());
         Ok(Scene {
             params: Vec::new(),
             name,
@@ -282,19 +320,81 @@ impl Scene {
             user_paths,
             accel,
             bounds,
+            masked,
         })
     }
 
-    /// Closest surface hit along `ray`.
+    /// Closest surface hit along `ray`. A hit on a masked material ([`Material::opacity`]) counts
+    /// with probability α there and is passed through otherwise ([`Scene::passes_through`]).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
-        self.accel.intersect(ray).map(|h| self.surface_hit(ray, h))
+        let hit = self.surface_hit(ray, self.accel.intersect(ray)?);
+        if self.masked {
+            self.through_masks(ray, hit)
+        } else {
+            Some(hit)
+        }
     }
 
-    /// True when nothing blocks the segment of `ray` up to its `t_max`.
+    /// True when nothing blocks the segment of `ray` up to its `t_max` (masks let the segment
+    /// through as they let [`Scene::intersect`]'s rays through).
     #[inline]
     pub fn unoccluded(&self, ray: &Ray) -> bool {
-        self.accel.unoccluded(ray)
+        if self.masked {
+            self.intersect(ray).is_none()
+        } else {
+            self.accel.unoccluded(ray)
+        }
+    }
+
+    /// The opacity α of the surface at a hit: 1 without a mask.
+    #[inline]
+    pub fn opacity(&self, hit: &SurfaceHit) -> f32 {
+        self.materials[hit.material as usize].opacity_at(|| self.uv(hit))
+    }
+
+    /// Whether a ray along `d` meeting a masked surface at `hit` passes through it.
+    ///
+    /// Mitsuba's `mask` is the mixture α f_s + (1 − α) δ(ω_i + ω_o): light scatters by the
+    /// material with probability α and goes on unchanged otherwise. We draw that choice as part
+    /// of the ray cast, as pbrt-v4 does with alpha textures, instead of making the pass-through
+    /// a delta lobe of the BSDF: every surface a ray returns is then opaque, shadow rays carry
+    /// the transmittance Π (1 − α) as an unbiased 0/1 estimate, and every strategy (next-event
+    /// estimation and connections to point lights through the holes of a leaf included)
+    /// renders masks without knowing of them — each vertex of a path is kept with its α by the
+    /// ray that found it, a factor every technique's density shares, so f / p and MIS weights
+    /// are unchanged. Density estimation is the exception: a photon stands for all the light
+    /// arriving at its point, so its stored power is divided by α ([`crate::photon`]).
+    ///
+    /// The uniform number is a hash of the hit point and the direction (not a random stream),
+    /// so that the same ray always meets the same surface: images stay bit-identical for any
+    /// thread count, and a Metropolis chain re-testing an unchanged edge sees what it saw.
+    /// Unlike Mitsuba's path tracer, a pass-through is not a bounce (it does not count toward
+    /// `max_depth`), as in pbrt.
+    #[inline]
+    pub fn passes_through(&self, hit: &SurfaceHit, d: Vec3) -> bool {
+        let alpha = self.opacity(hit);
+        alpha < 1.0 && opacity_sample(hit.p, d) >= alpha
+    }
+
+    /// Follows `ray` on through the masked surfaces it passes ([`Scene::passes_through`]).
+    #[cold]
+    fn through_masks(&self, ray: &Ray, mut hit: SurfaceHit) -> Option<SurfaceHit> {
+        let end = ray.at(ray.t_max);
+        let mut t_before = 0.0;
+        while self.passes_through(&hit, ray.d) {
+            let mut next = crate::geometry::spawn_ray(hit.p, hit.ng, ray.d);
+            t_before += hit.t;
+            if ray.t_max.is_finite() {
+                next.t_max = (end - next.o).dot(ray.d) / ray.d.length_squared();
+                if next.t_max <= 0.0 {
+                    return None;
+                }
+            }
+            hit = self.surface_hit(&next, self.accel.intersect(&next)?);
+        }
+        hit.t += t_before;
+        Some(hit)
     }
 
     /// Builds the surface description of a hit. Hit points are recomputed from barycentrics
@@ -369,7 +469,7 @@ impl Scene {
     /// path vertex keeps to evaluate its model later).
     #[inline]
     pub fn texture_uv(&self, hit: &SurfaceHit) -> Vec2 {
-        if self.materials[hit.material as usize].textures.is_empty() {
+        if !self.materials[hit.material as usize].is_textured() {
             Vec2::ZERO
         } else {
             self.uv(hit)

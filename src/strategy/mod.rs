@@ -65,6 +65,11 @@ pub struct Capabilities {
     /// Models with a delta lobe beside a non-delta one (Mitsuba's smooth `plastic`): the
     /// strategy treats each sample's `delta` flag rather than the surface's class.
     pub mixed_delta: bool,
+    /// Opacity masks (Mitsuba's `mask`), which rays pass with probability 1 − α
+    /// ([`crate::scene::Scene::passes_through`]): the strategy's estimates stay unbiased when
+    /// every surface vertex is kept with its α by the ray that found it, and a density estimate
+    /// divides a stored photon's power by α there.
+    pub opacity_masks: bool,
 }
 
 impl Capabilities {
@@ -74,6 +79,7 @@ impl Capabilities {
         directional_lights: false,
         lens_camera: false,
         mixed_delta: false,
+        opacity_masks: false,
     };
     pub const ALL: Self = Self {
         environment: true,
@@ -81,6 +87,7 @@ impl Capabilities {
         directional_lights: true,
         lens_camera: true,
         mixed_delta: true,
+        opacity_masks: true,
     };
 }
 
@@ -117,6 +124,10 @@ pub trait Strategy: Send + Sync {
 
     fn handles_mixed_delta(&self) -> bool {
         self.capabilities().mixed_delta
+    }
+
+    fn handles_opacity_masks(&self) -> bool {
+        self.capabilities().opacity_masks
     }
 
     /// Work done once per scene and seed before any sample is taken.
@@ -185,6 +196,17 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
                 _ => "thin-lens",
             },
             able(|s| s.handles_lens_camera()).join(", ")
+        );
+    }
+    if let Some(m) = scene.materials.iter().find(|m| m.opacity.is_some())
+        && !strategy.handles_opacity_masks()
+    {
+        crate::bail!(
+            "{}: strategy `{}` does not render material {:?} (an opacity mask) yet; strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            m.name,
+            able(|s| s.handles_opacity_masks()).join(", ")
         );
     }
     if scene.environment.is_some() && !strategy.handles_environment() {

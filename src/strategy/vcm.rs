@@ -77,7 +77,8 @@ crate::declare_params! {
 #[derive(Clone, Copy, Debug)]
 struct LightPoint {
     p: Vec3,
-    /// α_L(u), divided by the roulette survival of the sub-path up to y_u.
+    /// α_L(u), divided by the roulette survival of the sub-path up to y_u and by the opacity
+    /// of a masked surface there.
     alpha: Vec3,
     path: u32,
     /// u: the vertex index in its sub-path (≥ 1).
@@ -163,7 +164,10 @@ impl Vcm {
                             if !(y_u.is_surface() && y_u.can_end_connection()) {
                                 continue;
                             }
-                            let alpha = cache.alpha(u) / sub.survival[u] as f32;
+                            // Divided by the opacity too: y_u stands for all the light that
+                            // arrives there, also what a mask lets through (as a photon does,
+                            // `crate::photon::PhotonHit::power`).
+                            let alpha = cache.alpha(u) / (sub.survival[u] as f32 * y_u.opacity(scene));
                             if alpha != Vec3::ZERO && alpha.is_finite() {
                                 points.push(LightPoint {
                                     p: y_u.p,

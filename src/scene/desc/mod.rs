@@ -94,6 +94,17 @@
 //! [materials.matte_front]
 //! type = "one_sided"                # black from behind, as Mitsuba's BSDFs without `twosided`
 //! bsdf = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }   # any reflecting material
+//! [materials.leaf]
+//! type = "mask"                     # Mitsuba's mask: scatters by `bsdf` with probability
+//! opacity = { type = "checkerboard", color0 = [1, 1, 1], color1 = [0.2, 0.2, 0.2] }  # α: a
+//! bsdf = { type = "diffuse", reflectance = [0.2, 0.5, 0.1] }  # number in [0, 1] (default
+//!                                   # 0.5) or a texture's luminance; passes light straight
+//!                                   # through otherwise; not on an emitter
+//! [materials.worn_gold]
+//! type = "blend"                    # Mitsuba's blendbsdf: (1 − w) × bsdfs[0] + w × bsdfs[1]
+//! weight = 0.3                      # w in [0, 1] (default 0.5) or a texture's luminance
+//! bsdfs = [{ type = "rough_plastic", diffuse_reflectance = [0, 0, 0], distribution = "ggx", alpha = 0.3 },
+//!          { type = "conductor", material = "Au" }]   # two materials without textures
 //!
 //! # Shapes; every shape takes `material` (required), `transform` and `emission` (optional).
 //! [[shapes]]
@@ -477,6 +488,8 @@ pub enum MaterialDesc {
     RoughPlastic(RoughPlastic),
     Plastic(Plastic),
     OneSided(OneSided),
+    Mask(Mask),
+    Blend(Blend),
 }
 
 /// A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`).
@@ -498,6 +511,35 @@ pub struct Plastic {
 pub struct OneSided {
     /// Any reflecting material (not a dielectric, a sheet or diffuse transmission).
     pub bsdf: Box<MaterialDesc>,
+}
+
+/// Mitsuba's `mask`: the material scatters light with probability `opacity` (α) and lets it
+/// pass straight through otherwise ([`crate::scene::Scene::passes_through`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mask {
+    /// α in [0, 1] (1 opaque): a number, or a texture whose luminance is α (default 0.5, as
+    /// Mitsuba).
+    pub opacity: Option<ScalarDesc>,
+    /// Any material but another mask.
+    pub bsdf: Box<MaterialDesc>,
+}
+
+/// Mitsuba's `blendbsdf`: (1 − w) × the first material + w × the second.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Blend {
+    /// w in [0, 1]: a number, or a texture whose luminance is w (default 0.5, as Mitsuba).
+    pub weight: Option<ScalarDesc>,
+    /// Exactly two materials without textures (reflecting or transmitting, not masks).
+    pub bsdfs: Vec<MaterialDesc>,
+}
+
+/// A number parameter that may be a texture instead (its luminance).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ScalarDesc {
+    Value(f64),
+    Texture(Box<TextureDesc>),
 }
 
 /// Lambertian reflection.

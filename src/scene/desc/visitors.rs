@@ -126,3 +126,21 @@ impl<'de> Deserialize<'de> for ConeDeg {
         d.deserialize_any(V)
     }
 }
+
+impl<'de> Deserialize<'de> for ScalarDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ScalarDesc;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or a texture table")
+            }
+            visit_numbers!(ScalarDesc, ScalarDesc::Value);
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<ScalarDesc, A::Error> {
+                TextureDesc::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(|t| ScalarDesc::Texture(Box::new(t)))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}

@@ -239,6 +239,14 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
             None => format!("shapes[{i}]"),
         };
         b.shape(&field, shape, &material_index)?;
+        let (material, _, emission) = shape.common();
+        if emission.is_some() && materials[material_index[material] as usize].opacity.is_some() {
+            // A masked emitter would emit only where its rays stop at it.
+            return Err(ctx.err(
+                &format!("{field}.material"),
+                format!("material {material:?} is a mask: an emitter cannot be masked"),
+            ));
+        }
     }
     let environment = match &desc.environment {
         Some(e) => Some(environment::environment(

@@ -248,7 +248,13 @@ fn the_documented_example_loads() {
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 14);
+    assert_eq!(scene.materials.len(), 15);
+    let leaf = scene.materials.iter().find(|m| m.name == "leaf").unwrap();
+    assert_eq!(
+        leaf.opacity.as_ref().map(|o| o.range()),
+        Some((0.2, 1.0)),
+        "the leaf is masked"
+    );
     let floor = scene.materials.iter().find(|m| m.name == "floor").unwrap();
     assert_eq!(floor.textures.len(), 1, "the checkerboard floor is textured");
     assert_eq!(stats.spheres, 1);

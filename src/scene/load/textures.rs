@@ -5,8 +5,8 @@ use super::mesh::read_regular_file;
 use super::*;
 use crate::bsdf::ColorParam;
 use crate::error::Result;
-use crate::scene::desc::{BitmapDesc, CheckerboardDesc, Color, TextureDesc, UvTransformDesc};
-use crate::texture::{Bitmap, Checkerboard, Filter, Texture, UvTransform, Wrap, decode_image};
+use crate::scene::desc::{BitmapDesc, CheckerboardDesc, Color, ScalarDesc, TextureDesc, UvTransformDesc};
+use crate::texture::{Bitmap, Checkerboard, Filter, Scalar, Texture, UvTransform, Wrap, decode_image};
 use glam::{Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -64,6 +64,29 @@ impl<'a> Textures<'a> {
         }
         self.params.push((param, texture));
         Ok(hi)
+    }
+
+    /// A number in [0, 1] that may be a texture (its luminance, every texel's in [0, 1]).
+    pub(super) fn unit_scalar(&mut self, ctx: &Ctx, field: &str, s: &ScalarDesc) -> Result<Scalar> {
+        let scalar = match s {
+            ScalarDesc::Value(v) => Scalar::Constant(*v as f32),
+            ScalarDesc::Texture(t) => Scalar::Texture(self.texture(ctx, field, t)?),
+        };
+        let (lo, hi) = scalar.range();
+        if (0.0..=1.0).contains(&lo) && (0.0..=1.0).contains(&hi) {
+            return Ok(scalar);
+        }
+        Err(ctx.err(
+            field,
+            match s {
+                ScalarDesc::Value(v) => format!("expected a number in [0, 1], got {}", num(*v)),
+                ScalarDesc::Texture(_) => format!(
+                    "expected every texture value in [0, 1], got luminances from {} to {}",
+                    num(lo as f64),
+                    num(hi as f64)
+                ),
+            },
+        ))
     }
 
     fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {

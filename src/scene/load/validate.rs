@@ -4,13 +4,16 @@
 use super::rough;
 use super::textures::Textures;
 use super::*;
-use crate::bsdf::{Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward};
+use crate::bsdf::{
+    Blend, Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward,
+};
 use crate::camera::{Camera, Lens};
 use crate::error::Result;
 use crate::pixel_filter::{FilterKind, MAX_RADIUS, PixelFilter};
 use crate::resources::{check_memory, film_bytes, memory_limit};
 use crate::scene::Material;
 use crate::scene::desc::{self, MaterialDesc, Triple};
+use crate::texture::Scalar;
 use glam::{DVec3, Vec3};
 use std::collections::BTreeMap;
 
@@ -261,11 +264,22 @@ pub(super) fn materials(
         let field = format!("materials.{}", key_string(name));
         validate_material(ctx, &field, d)?;
         index.insert(name.clone(), out.len() as u32);
+        let (d, opacity) = match d {
+            MaterialDesc::Mask(m) => {
+                let opacity = m.opacity.clone().unwrap_or(desc::ScalarDesc::Value(0.5));
+                (
+                    &*m.bsdf,
+                    Some(textures.unit_scalar(ctx, &format!("{field}.opacity"), &opacity)?),
+                )
+            }
+            d => (d, None),
+        };
         let bsdf = make_bsdf(ctx, &field, d, textures)?;
         out.push(Material {
             name: name.clone(),
             bsdf,
             textures: std::mem::take(&mut textures.params),
+            opacity,
         });
     }
     Ok((out, index))
@@ -339,6 +353,7 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                     | MaterialDesc::RoughDielectric(_)
                     | MaterialDesc::DiffuseTransmission(_)
                     | MaterialDesc::OneSided(_)
+                    | MaterialDesc::Mask(_)
             ) {
                 return Err(ctx.err(
                     &f("bsdf"),
@@ -347,8 +362,64 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
             }
             validate_material(ctx, &f("bsdf"), &m.bsdf)?;
         }
+        MaterialDesc::Blend(m) => {
+            if m.bsdfs.len() != 2 {
+                return Err(ctx.err(
+                    &f("bsdfs"),
+                    format!("expected exactly 2 materials, got {}", m.bsdfs.len()),
+                ));
+            }
+            for (i, b) in m.bsdfs.iter().enumerate() {
+                let field = format!("{field}.bsdfs[{i}]");
+                if matches!(b, MaterialDesc::Mask(_)) {
+                    return Err(ctx.err(
+                        &field,
+                        "expected a material that is not a mask (a mask goes around the blend)",
+                    ));
+                }
+                validate_material(ctx, &field, b)?;
+            }
+        }
+        MaterialDesc::Mask(m) => {
+            if matches!(*m.bsdf, MaterialDesc::Mask(_)) {
+                return Err(ctx.err(&f("bsdf"), "expected a material that is not itself a mask"));
+            }
+            validate_material(ctx, &f("bsdf"), &m.bsdf)?;
+        }
     }
     Ok(())
+}
+
+/// A blend of two materials; only its weight may be a texture (a colour texture inside would
+/// have no parameter of the blend to drive).
+fn blend(ctx: &Ctx, field: &str, m: &desc::Blend, textures: &mut Textures) -> Result<Bsdf> {
+    let before = textures.params.len();
+    let mut bsdfs = Vec::with_capacity(2);
+    for (i, b) in m.bsdfs.iter().enumerate() {
+        let field = format!("{field}.bsdfs[{i}]");
+        bsdfs.push(make_bsdf(ctx, &field, b, textures)?);
+        if textures.params.len() != before {
+            return Err(ctx.err(
+                &field,
+                "expected a material without textures (only the blend's weight may be one)",
+            ));
+        }
+    }
+    let weight = m.weight.clone().unwrap_or(desc::ScalarDesc::Value(0.5));
+    let weight = match textures.unit_scalar(ctx, &format!("{field}.weight"), &weight)? {
+        Scalar::Constant(w) => w,
+        Scalar::Texture(t) => {
+            // The model holds the largest weight, as textured colours hold their largest value.
+            let (_, hi) = Scalar::Texture(t.clone()).range();
+            textures.params.push((ColorParam::Weight, t));
+            hi
+        }
+    };
+    let [b0, b1]: [Bsdf; 2] = bsdfs.try_into().expect("validated: two materials");
+    Ok(Bsdf::Blend(Box::new(Blend {
+        weight,
+        bsdfs: [b0, b1],
+    })))
 }
 
 /// Turns a validated material description into its reflectance model: the one place that
@@ -395,6 +466,10 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         MaterialDesc::OneSided(m) => {
             Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?))
         }
+        // `materials` takes the opacity off the outermost material; validation refuses masks
+        // anywhere else.
+        MaterialDesc::Mask(m) => make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?,
+        MaterialDesc::Blend(m) => blend(ctx, field, m, textures)?,
     };
     // The description was validated field by field; this is the models' own check, kept as a
     // second line of defence (f64 → f32 rounding could tip a sum over 1).

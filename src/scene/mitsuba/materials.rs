@@ -9,6 +9,13 @@ impl<'a, 'i> Reader<'a, 'i> {
     /// A BSDF element as one of our materials.
     pub(super) fn bsdf(&mut self, n: Node<'a, 'i>) -> Result<MaterialDesc> {
         let kind = self.required(n, "type")?;
+        if kind == "mask" {
+            return self.mask(n, Self::bsdf);
+        }
+        if kind == "blendbsdf" {
+            // Each model keeps its own sidedness (a blended dielectric stays two-sided).
+            return self.blend(n, Self::bsdf);
+        }
         if kind == "twosided" {
             let o = self.obj(n)?;
             self.finish(&o)?;
@@ -22,6 +29,12 @@ impl<'a, 'i> Reader<'a, 'i> {
                     "expected exactly one nested <bsdf> (a different back side is not supported)",
                 ));
             };
+            // Opacity is the same from both sides: twosided(mask(b)) is mask(twosided(b)).
+            match self.required(inner, "type")?.as_str() {
+                "mask" => return self.mask(inner, Self::one_bsdf),
+                "blendbsdf" => return self.blend(inner, Self::one_bsdf),
+                _ => {}
+            }
             let m = self.one_bsdf(inner)?;
             if matches!(
                 m,
@@ -47,6 +60,9 @@ impl<'a, 'i> Reader<'a, 'i> {
 
     pub(super) fn one_bsdf(&mut self, n: Node<'a, 'i>) -> Result<MaterialDesc> {
         let kind = self.required(n, "type")?;
+        if kind == "blendbsdf" {
+            return self.blend(n, Self::one_bsdf);
+        }
         let mut o = self.obj(n)?;
         let m = match kind.as_str() {
             "diffuse" => MaterialDesc::Diffuse(desc::Diffuse {
@@ -147,7 +163,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     n,
                     format!(
                         "unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, \
-                         roughdielectric, thindielectric, plastic, roughplastic, twosided)"
+                         roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, blendbsdf)"
                     ),
                 ));
             }
@@ -157,6 +173,68 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         self.finish(&o)?;
         Ok(m)
+    }
+
+    /// A `blendbsdf`: its `weight` (a number, a colour's luminance or a texture's, default 0.5)
+    /// and its two nested BSDFs, read by `nested`.
+    fn blend(
+        &mut self,
+        n: Node<'a, 'i>,
+        nested: fn(&mut Self, Node<'a, 'i>) -> Result<MaterialDesc>,
+    ) -> Result<MaterialDesc> {
+        let mut o = self.obj(n)?;
+        let weight = self.scalar_texture(&mut o, "weight")?;
+        let inner = self.nested_bsdfs(&o, "blendbsdf")?;
+        let [a, b] = inner[..] else {
+            return Err(self.err(n, "expected exactly two nested <bsdf> in a blendbsdf"));
+        };
+        Ok(MaterialDesc::Blend(desc::Blend {
+            weight,
+            bsdfs: vec![nested(self, a)?, nested(self, b)?],
+        }))
+    }
+
+    /// A number that may be a texture: a `<float>`, a colour's luminance, or a texture.
+    fn scalar_texture(&mut self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<desc::ScalarDesc>> {
+        Ok(match self.texture_colour(o, name)? {
+            None => None,
+            Some(Color::Rgb(c)) => Some(desc::ScalarDesc::Value(crate::color::luminance(
+                glam::DVec3::from_array(c.0).as_vec3(),
+            ) as f64)),
+            Some(Color::Texture(t)) => Some(desc::ScalarDesc::Texture(t)),
+        })
+    }
+
+    /// The nested `<bsdf>` elements of a wrapper BSDF (`kind`), once its properties are taken;
+    /// anything else nested is an error.
+    fn nested_bsdfs(&self, o: &Obj<'a, 'i>, kind: &str) -> Result<Vec<Node<'a, 'i>>> {
+        self.finish(o)?;
+        if let Some(&c) = o.children.iter().find(|c| !c.has_tag_name("bsdf")) {
+            return Err(self.err(c, format!("unexpected element in a {kind} BSDF")));
+        }
+        Ok(o.children.clone())
+    }
+
+    /// A `mask`: its `opacity` (a number, a colour's luminance or a texture's, default 0.5) and
+    /// its one nested BSDF, read by `nested` (sidedness as Mitsuba's, or two-sided).
+    fn mask(
+        &mut self,
+        n: Node<'a, 'i>,
+        nested: fn(&mut Self, Node<'a, 'i>) -> Result<MaterialDesc>,
+    ) -> Result<MaterialDesc> {
+        let mut o = self.obj(n)?;
+        let opacity = self.scalar_texture(&mut o, "opacity")?;
+        let inner = self.nested_bsdfs(&o, "mask")?;
+        let [inner] = inner[..] else {
+            return Err(self.err(n, "expected exactly one nested <bsdf> in a mask"));
+        };
+        if self.required(inner, "type")? == "mask" {
+            return Err(self.err(inner, "a mask inside a mask is not supported"));
+        }
+        Ok(MaterialDesc::Mask(desc::Mask {
+            opacity,
+            bsdf: Box::new(nested(self, inner)?),
+        }))
     }
 
     /// A conductor's `material` (a name; "none" is the default mirror), `eta` and `k` (unbounded

@@ -421,6 +421,12 @@ impl<'a, 'i> Reader<'a, 'i> {
             self.defaults.entry(name).or_insert(value);
         }
         let elements: Vec<Node> = root.children().filter(Node::is_element).collect();
+        // Search directories before any file is named: Mitsuba resolves file names when it
+        // builds the objects, after the whole file (every <path> in it) has been read.
+        for &n in elements.iter().filter(|n| n.has_tag_name("path")) {
+            let value = self.required(n, "value")?;
+            self.search.insert(0, self.dir.join(value));
+        }
         // Named textures, BSDFs and area emitters first, so that a <ref> may precede the
         // definition it names.
         for &n in elements.iter().filter(|n| n.has_tag_name("sampler")) {
@@ -469,12 +475,8 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         for &n in &elements {
             match n.tag_name().name() {
-                "default" | "bsdf" | "texture" => {}
+                "default" | "bsdf" | "texture" | "path" => {}
                 "include" => self.include(n, parts)?,
-                "path" => {
-                    let value = self.required(n, "value")?;
-                    self.search.insert(0, self.dir.join(value));
-                }
                 "sensor" => {
                     if parts.camera.is_some() {
                         return Err(self.err(n, "a second <sensor>: photon-bench renders one camera per scene"));

@@ -256,8 +256,14 @@ impl Declared for Mps {
 }
 
 impl Strategy for Mps {
+    /// Everything but opacity masks: a Metropolis photon's power divides the light side's
+    /// throughput by the whole path's, and with masks that ratio would also have to undo the
+    /// eye side's α and mask transmittances, which no vertex of the path records.
     fn capabilities(&self) -> crate::strategy::Capabilities {
-        crate::strategy::Capabilities::ALL
+        crate::strategy::Capabilities {
+            opacity_masks: false,
+            ..crate::strategy::Capabilities::ALL
+        }
     }
 
     fn kind(&self) -> &'static str {
