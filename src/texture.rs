@@ -20,8 +20,9 @@
 //!   per texel when loaded (before filtering) unless `raw`; OpenEXR files are linear already.
 //!   Alpha is ignored; a grey image gives grey colours.
 //! - The checkerboard picks `color0` where the fractional parts of u' and v' are on the same
-//!   side of ½, `color1` elsewhere (Mitsuba's `eval`; its `eval_1` for float parameters swaps
-//!   the two, which no parameter here uses).
+//!   side of ½, `color1` elsewhere (Mitsuba's `eval`); for a number parameter ([`Scalar`]: an
+//!   opacity, a blend weight, a roughness) it swaps the two, as Mitsuba 3.9.1's `eval_1` does
+//!   (the pattern moved by one cell; followed so that the same scene renders the same image).
 
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -108,6 +109,16 @@ impl Texture {
         }
     }
 
+    /// The number a number parameter reads at `uv` (Mitsuba's `eval_1`): the luminance of the
+    /// colour, a checkerboard's colours swapped (module doc).
+    #[inline]
+    pub fn eval_number(&self, uv: Vec2) -> f32 {
+        crate::color::luminance(match self {
+            Texture::Checkerboard(c) => c.eval_swapped(uv),
+            Texture::Bitmap(b) => b.eval(uv),
+        })
+    }
+
     /// The largest value of each channel anywhere on the texture.
     pub fn max(&self) -> Vec3 {
         match self {
@@ -151,7 +162,7 @@ impl Scalar {
     pub fn at(&self, uv: Vec2) -> f32 {
         match self {
             Scalar::Constant(v) => *v,
-            Scalar::Texture(t) => crate::color::luminance(t.eval(uv)),
+            Scalar::Texture(t) => t.eval_number(uv),
         }
     }
 
@@ -179,13 +190,21 @@ impl Scalar {
 impl Checkerboard {
     #[inline]
     pub fn eval(&self, uv: Vec2) -> Vec3 {
+        if self.same_side(uv) { self.color0 } else { self.color1 }
+    }
+
+    /// The colour Mitsuba's `eval_1` reads for a number parameter: the other one.
+    #[inline]
+    pub fn eval_swapped(&self, uv: Vec2) -> Vec3 {
+        if self.same_side(uv) { self.color1 } else { self.color0 }
+    }
+
+    /// Whether the fractional parts of u' and v' lie on the same side of ½.
+    #[inline]
+    fn same_side(&self, uv: Vec2) -> bool {
         let uv = self.to_uv.apply(uv);
         let upper = |x: f32| x - x.floor() > 0.5;
-        if upper(uv.x) == upper(uv.y) {
-            self.color0
-        } else {
-            self.color1
-        }
+        upper(uv.x) == upper(uv.y)
     }
 }
 

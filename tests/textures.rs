@@ -335,3 +335,59 @@ fn shading_tangents_follow_the_texture_parameterization() {
         assert!((s - Vec3::Y).length() < 1e-5, "mesh at ({x}, {y}): {s}");
     }
 }
+
+/// Number parameters read a texture's luminance, a checkerboard's colours swapped as Mitsuba
+/// 3.9.1's `eval_1` swaps them: a rough conductor's `alpha_u` and `alpha_v` from two opposite
+/// checkerboards (Mitsuba's textured carbon) give each cell α_u = the *other* colour of its
+/// checkerboard, and the model is oriented by the tangent; a rough plastic's roughness
+/// cannot be a texture (one line).
+#[test]
+fn textured_roughness_reads_mitsubas_eval_1() {
+    use photon_bench::bsdf::Bsdf;
+    let dir = tempfile::tempdir().unwrap();
+    let checks = |name: &str, c0: f32, c1: f32| {
+        format!(
+            r#"<texture name="{name}" type="checkerboard"><transform name="to_uv"><scale x="2" y="2"/></transform>
+            <float name="color0" value="{c0}"/><float name="color1" value="{c1}"/></texture>"#
+        )
+    };
+    let body = format!(
+        r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="roughconductor">{}{}</bsdf></bsdf></shape>"#,
+        checks("alpha_u", 0.05, 0.3),
+        checks("alpha_v", 0.3, 0.05)
+    );
+    let scene = load_in(dir.path(), &body).unwrap();
+    assert!(scene.materials.iter().any(|m| m.is_anisotropic()));
+    for (x, y) in [(-0.9f32, -0.9f32), (-0.4, -0.9), (0.1, 0.3), (0.7, -0.2)] {
+        let hit = scene.intersect(&Ray::new(Vec3::new(x, y, 1.0), -Vec3::Z)).unwrap();
+        let Bsdf::RoughConductor(b) = &*scene.bsdf(&hit) else {
+            panic!("not a rough conductor")
+        };
+        let uv = scene.uv(&hit);
+        let upper = |a: f32| a - a.floor() > 0.5;
+        let same = upper(2.0 * uv.x) == upper(2.0 * uv.y);
+        // eval would give color0 where `same`; eval_1 gives color1 there.
+        let (au, av) = if same { (0.3, 0.05) } else { (0.05, 0.3) };
+        assert_eq!(
+            (b.distribution.alpha_u, b.distribution.alpha_v),
+            (au, av),
+            "at ({x}, {y})"
+        );
+        assert!(
+            (hit.frame.to_world(Vec3::X) - Vec3::X).length() < 1e-5,
+            "tangent along x"
+        );
+    }
+    let err = load_in(
+        dir.path(),
+        &format!(
+            r#"<shape type="rectangle"><bsdf type="roughplastic">{}</bsdf></shape>"#,
+            checks("alpha", 0.1, 0.2)
+        ),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("alpha") && err.contains("cannot be a texture"), "{err}");
+}

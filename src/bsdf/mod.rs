@@ -140,8 +140,26 @@ pub enum ColorParam {
     DiffuseReflectance,
     /// `specular_reflectance` of conductors, rough dielectrics and rough plastic.
     SpecularReflectance,
-    /// A blend's weight w, the luminance of the texture's colour.
+    /// A blend's weight w (a number parameter: [`crate::texture::Texture::eval_number`]).
     Weight,
+    /// The roughness α of a rough conductor or dielectric, both α_u and α_v (a number
+    /// parameter; a rough plastic tabulates its coating for one α, as Mitsuba's does).
+    Alpha,
+    /// α_u alone (a number parameter).
+    AlphaU,
+    /// α_v alone (a number parameter).
+    AlphaV,
+}
+
+impl ColorParam {
+    /// Whether the parameter is a number (read by `Texture::eval_number`, set from any channel
+    /// of the value passed to [`Bsdf::set_color`]) rather than a colour.
+    pub fn is_number(self) -> bool {
+        matches!(
+            self,
+            ColorParam::Weight | ColorParam::Alpha | ColorParam::AlphaU | ColorParam::AlphaV
+        )
+    }
 }
 
 impl BsdfSample {
@@ -297,7 +315,18 @@ impl Bsdf {
         let field = match (self, param) {
             (Bsdf::OneSided(b), _) => return b.set_color(param, c),
             (Bsdf::Blend(b), Weight) => {
-                b.weight = luminance(c).clamp(0.0, 1.0);
+                b.weight = c.x.clamp(0.0, 1.0);
+                return true;
+            }
+            (Bsdf::RoughConductor(RoughConductor { distribution: d, .. }), Alpha | AlphaU | AlphaV)
+            | (Bsdf::RoughDielectric(RoughDielectric { distribution: d, .. }), Alpha | AlphaU | AlphaV) => {
+                let a = c.x.max(MIN_ALPHA);
+                if param != AlphaV {
+                    d.alpha_u = a;
+                }
+                if param != AlphaU {
+                    d.alpha_v = a;
+                }
                 return true;
             }
             (Bsdf::Lambertian(b), Reflectance) => &mut b.reflectance,

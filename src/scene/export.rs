@@ -566,7 +566,7 @@ fn material_xml(
         MaterialDesc::RoughConductor(c) => twosided(format!(
             "        <bsdf type=\"roughconductor\">\n{}{}        </bsdf>\n",
             conductor_props(&c.conductor(), INNER),
-            roughness_props(&c.roughness(), INNER)
+            roughness_props(&c.roughness(), INNER, files)
         )),
         MaterialDesc::RoughDielectric(d) => format!(
             "    <bsdf type=\"roughdielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
@@ -574,7 +574,7 @@ fn material_xml(
             d.ior,
             optional_rgb("specular_reflectance", d.specular_reflectance, OUTER),
             optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
-            roughness_props(&d.roughness(), OUTER)
+            roughness_props(&d.roughness(), OUTER, files)
         ),
         MaterialDesc::RoughPlastic(p) => twosided(plastic_xml(
             "roughplastic",
@@ -584,7 +584,7 @@ fn material_xml(
                 p.specular_reflectance,
                 p.nonlinear,
             ),
-            &roughness_props(&p.roughness(), INNER),
+            &roughness_props(&p.roughness(), INNER, files),
             files,
         )),
         MaterialDesc::Plastic(p) => twosided(plastic_xml(
@@ -636,9 +636,15 @@ fn material_xml(
 
 /// A number parameter that may be a texture (absent: Mitsuba's default 0.5, written out).
 fn scalar_xml(name: &str, v: Option<&desc::ScalarDesc>, files: &Files) -> String {
-    match v.unwrap_or(&desc::ScalarDesc::Value(0.5)) {
-        desc::ScalarDesc::Value(v) => format!("{OUTER}<float name=\"{name}\" value=\"{v}\"/>\n"),
-        desc::ScalarDesc::Texture(t) => files.color(name, &Color::Texture(t.clone()), OUTER),
+    scalar_xml_at(name, Some(v.unwrap_or(&desc::ScalarDesc::Value(0.5))), files, OUTER)
+}
+
+/// A number parameter (or its texture) at `indent`; nothing when absent.
+fn scalar_xml_at(name: &str, v: Option<&desc::ScalarDesc>, files: &Files, indent: &str) -> String {
+    match v {
+        None => String::new(),
+        Some(desc::ScalarDesc::Value(v)) => format!("{indent}<float name=\"{name}\" value=\"{v}\"/>\n"),
+        Some(desc::ScalarDesc::Texture(t)) => files.color(name, &Color::Texture(t.clone()), indent),
     }
 }
 
@@ -695,22 +701,23 @@ fn conductor_props(c: &desc::Conductor, indent: &str) -> String {
 }
 
 /// A microfacet distribution with every default written out.
-fn roughness_props(r: &Roughness, indent: &str) -> String {
+fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> String {
     let mut x = format!(
         "{indent}<string name=\"distribution\" value=\"{}\"/>\n",
         escape(r.distribution.as_deref().unwrap_or("beckmann"))
     );
-    match (r.alpha_u, r.alpha_v) {
+    match (&r.alpha_u, &r.alpha_v) {
         (Some(u), Some(v)) => {
-            let _ = writeln!(x, "{indent}<float name=\"alpha_u\" value=\"{u}\"/>");
-            let _ = writeln!(x, "{indent}<float name=\"alpha_v\" value=\"{v}\"/>");
+            x += &scalar_xml_at("alpha_u", Some(u), files, indent);
+            x += &scalar_xml_at("alpha_v", Some(v), files, indent);
         }
         _ => {
-            let _ = writeln!(
-                x,
-                "{indent}<float name=\"alpha\" value=\"{}\"/>",
-                r.alpha.unwrap_or(0.1)
-            );
+            x += &scalar_xml_at(
+                "alpha",
+                Some(r.alpha.as_ref().unwrap_or(&desc::ScalarDesc::Value(0.1))),
+                files,
+                indent,
+            )
         }
     }
     let _ = writeln!(

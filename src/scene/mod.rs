@@ -70,7 +70,12 @@ impl Material {
         let uv = uv();
         let mut bsdf = self.bsdf.clone();
         for (param, texture) in &self.textures {
-            bsdf.set_color(*param, texture.eval(uv));
+            let value = if param.is_number() {
+                Vec3::splat(texture.eval_number(uv))
+            } else {
+                texture.eval(uv)
+            };
+            bsdf.set_color(*param, value);
         }
         Cow::Owned(bsdf)
     }
@@ -84,6 +89,16 @@ impl Material {
             Some(Scalar::Constant(a)) => *a,
             Some(a) => a.at(uv()),
         }
+    }
+
+    /// Whether the model depends on the tangent somewhere: anisotropic as built, or with
+    /// textured α_u, α_v (which may differ at a hit though their largest values agree).
+    pub fn is_anisotropic(&self) -> bool {
+        self.bsdf.is_anisotropic()
+            || self
+                .textures
+                .iter()
+                .any(|(p, _)| matches!(p, ColorParam::AlphaU | ColorParam::AlphaV))
     }
 
     /// Whether anything about the material varies with (u, v).
@@ -406,7 +421,7 @@ impl Scene {
         let mut bary = Vec2::ZERO;
         // The tangent orients anisotropic models only; isotropic ones keep the frame they always
         // had (so that their images stay bit-identical to earlier versions).
-        let anisotropic = self.materials[attrs.material as usize].bsdf.is_anisotropic();
+        let anisotropic = self.materials[attrs.material as usize].is_anisotropic();
         let (p, ng, ns, tangent) = match self.primitives[i] {
             Primitive::Triangle([a, b, c]) => {
                 bary = pull_off_edges(hit.b);

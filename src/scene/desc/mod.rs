@@ -72,7 +72,9 @@
 //! type = "rough_conductor"          # Mitsuba's `roughconductor`: the fields of `conductor` and
 //! material = "Au"
 //! distribution = "ggx"              # "beckmann" (default) or "ggx"
-//! alpha = 0.2                       # roughness in [0, 10], default 0.1; or alpha_u and alpha_v
+//! alpha = 0.2                       # roughness in [0, 10], default 0.1, or a texture (its
+//!                                   # luminance; rough conductors and dielectrics); or alpha_u
+//!                                   # and alpha_v
 //! sample_visible = true             # optional: visible-normal sampling (default) or all normals
 //! [materials.frosted]
 //! type = "rough_dielectric"         # Mitsuba's `roughdielectric`, the distribution as above
@@ -640,10 +642,11 @@ pub struct ThinDielectric {
 pub struct Roughness {
     /// "beckmann" (default) or "ggx".
     pub distribution: Option<String>,
-    /// Isotropic roughness (default 0.1); or both of `alpha_u`, `alpha_v`.
-    pub alpha: Option<f64>,
-    pub alpha_u: Option<f64>,
-    pub alpha_v: Option<f64>,
+    /// Isotropic roughness (default 0.1); or both of `alpha_u`, `alpha_v`. Each a number or
+    /// (rough conductors and dielectrics, as in Mitsuba) a texture.
+    pub alpha: Option<ScalarDesc>,
+    pub alpha_u: Option<ScalarDesc>,
+    pub alpha_v: Option<ScalarDesc>,
     pub sample_visible: Option<bool>,
 }
 
@@ -657,9 +660,9 @@ macro_rules! rough_material {
         pub struct $name {
             $($(#[$fdoc])* pub $field: $ty,)*
             pub distribution: Option<String>,
-            pub alpha: Option<f64>,
-            pub alpha_u: Option<f64>,
-            pub alpha_v: Option<f64>,
+            pub alpha: Option<ScalarDesc>,
+            pub alpha_u: Option<ScalarDesc>,
+            pub alpha_v: Option<ScalarDesc>,
             pub sample_visible: Option<bool>,
         }
 
@@ -667,9 +670,9 @@ macro_rules! rough_material {
             pub fn roughness(&self) -> Roughness {
                 Roughness {
                     distribution: self.distribution.clone(),
-                    alpha: self.alpha,
-                    alpha_u: self.alpha_u,
-                    alpha_v: self.alpha_v,
+                    alpha: self.alpha.clone(),
+                    alpha_u: self.alpha_u.clone(),
+                    alpha_v: self.alpha_v.clone(),
                     sample_visible: self.sample_visible,
                 }
             }

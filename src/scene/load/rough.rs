@@ -18,8 +18,15 @@ const MAX_ALPHA: f64 = 10.0;
 pub(crate) const PLASTIC_DEFAULT_IOR: f64 = 1.49;
 
 /// A microfacet distribution from Mitsuba's fields: `distribution`, `alpha` or both
-/// `alpha_u`/`alpha_v`, `sample_visible`.
-pub(super) fn microfacet(ctx: &Ctx, field: &str, r: &Roughness) -> Result<Microfacet> {
+/// `alpha_u`/`alpha_v`, `sample_visible`. Roughness textures are remembered in `textures`
+/// (the model holds their largest values); without `textures` (rough plastic, whose coating
+/// is tabulated for one roughness, as Mitsuba's) they are refused.
+pub(super) fn microfacet(
+    ctx: &Ctx,
+    field: &str,
+    r: &Roughness,
+    mut textures: Option<&mut Textures>,
+) -> Result<Microfacet> {
     let f = |key: &str| format!("{field}.{key}");
     let kind = match r.distribution.as_deref() {
         None => MicrofacetType::Beckmann,
@@ -30,9 +37,10 @@ pub(super) fn microfacet(ctx: &Ctx, field: &str, r: &Roughness) -> Result<Microf
             )
         })?,
     };
-    let (alpha_u, alpha_v) = match (r.alpha, r.alpha_u, r.alpha_v) {
-        (a, None, None) => (a.unwrap_or(0.1), a.unwrap_or(0.1)),
-        (None, Some(u), Some(v)) => (u, v),
+    let default = desc::ScalarDesc::Value(0.1);
+    let given: Vec<(ColorParam, &str, &desc::ScalarDesc)> = match (&r.alpha, &r.alpha_u, &r.alpha_v) {
+        (a, None, None) => vec![(ColorParam::Alpha, "alpha", a.as_ref().unwrap_or(&default))],
+        (None, Some(u), Some(v)) => vec![(ColorParam::AlphaU, "alpha_u", u), (ColorParam::AlphaV, "alpha_v", v)],
         (Some(_), _, _) => {
             return Err(ctx.err(&f("alpha"), "give either alpha or both alpha_u and alpha_v, not both"));
         }
@@ -40,23 +48,33 @@ pub(super) fn microfacet(ctx: &Ctx, field: &str, r: &Roughness) -> Result<Microf
             return Err(ctx.err(field, "alpha_u and alpha_v must be given together"));
         }
     };
-    let keys = if r.alpha.is_some() {
-        ["alpha", "alpha"]
-    } else {
-        ["alpha_u", "alpha_v"]
-    };
-    for (key, a) in keys.into_iter().zip([alpha_u, alpha_v]) {
-        if !(a.is_finite() && (0.0..=MAX_ALPHA).contains(&a)) {
-            return Err(ctx.err(
-                &f(key),
-                format!("expected a roughness in [0, {}], got {}", num(MAX_ALPHA), num(a)),
-            ));
-        }
+    let mut alphas = Vec::with_capacity(2);
+    for (param, key, a) in given {
+        let value = match (a, textures.as_deref_mut()) {
+            (desc::ScalarDesc::Texture(_), None) => {
+                return Err(ctx.err(
+                    &f(key),
+                    "expected a number (this model's roughness cannot be a texture)",
+                ));
+            }
+            (a, Some(t)) => t.number_param(ctx, &f(key), a, (MAX_ALPHA, "a roughness"), param)?,
+            (desc::ScalarDesc::Value(v), None) => {
+                if !(v.is_finite() && (0.0..=MAX_ALPHA).contains(v)) {
+                    return Err(ctx.err(
+                        &f(key),
+                        format!("expected a roughness in [0, {}], got {}", num(MAX_ALPHA), num(*v)),
+                    ));
+                }
+                *v as f32
+            }
+        };
+        alphas.push(value);
     }
+    let (alpha_u, alpha_v) = (alphas[0], *alphas.last().unwrap());
     Ok(Microfacet::new(
         kind,
-        alpha_u as f32,
-        alpha_v as f32,
+        alpha_u,
+        alpha_v,
         r.sample_visible.unwrap_or(true),
     ))
 }
@@ -133,18 +151,28 @@ pub(super) fn conductor(ctx: &Ctx, field: &str, c: &desc::Conductor) -> Result<B
     }))
 }
 
-pub(super) fn rough_conductor(ctx: &Ctx, field: &str, c: &desc::RoughConductor) -> Result<Bsdf> {
+pub(super) fn rough_conductor(
+    ctx: &Ctx,
+    field: &str,
+    c: &desc::RoughConductor,
+    textures: &mut Textures,
+) -> Result<Bsdf> {
     Ok(Bsdf::RoughConductor(RoughConductor {
         ior: conductor_ior(ctx, field, &c.conductor())?,
-        distribution: microfacet(ctx, field, &c.roughness())?,
+        distribution: microfacet(ctx, field, &c.roughness(), Some(textures))?,
     }))
 }
 
-pub(super) fn rough_dielectric(ctx: &Ctx, field: &str, m: &desc::RoughDielectric) -> Result<Bsdf> {
+pub(super) fn rough_dielectric(
+    ctx: &Ctx,
+    field: &str,
+    m: &desc::RoughDielectric,
+    textures: &mut Textures,
+) -> Result<Bsdf> {
     let f = |key: &str| format!("{field}.{key}");
     Ok(Bsdf::RoughDielectric(RoughDielectric {
         ior: interface_ior(ctx, &f("ior"), m.ior)?,
-        distribution: microfacet(ctx, field, &m.roughness())?,
+        distribution: microfacet(ctx, field, &m.roughness(), Some(textures))?,
         specular_reflectance: unit_or_one(ctx, &f("specular_reflectance"), m.specular_reflectance)?,
         specular_transmittance: unit_or_one(ctx, &f("specular_transmittance"), m.specular_transmittance)?,
     }))
@@ -152,7 +180,7 @@ pub(super) fn rough_dielectric(ctx: &Ctx, field: &str, m: &desc::RoughDielectric
 
 pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic, textures: &mut Textures) -> Result<Bsdf> {
     let f = |key: &str| format!("{field}.{key}");
-    let distribution = microfacet(ctx, field, &m.roughness())?;
+    let distribution = microfacet(ctx, field, &m.roughness(), None)?;
     if !distribution.is_isotropic() {
         return Err(ctx.err(
             field,

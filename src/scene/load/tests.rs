@@ -248,7 +248,12 @@ fn the_documented_example_loads() {
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 15);
+    assert_eq!(scene.materials.len(), 16);
+    let blend = scene.materials.iter().find(|m| m.name == "worn_gold").unwrap();
+    assert!(
+        blend.bsdf.mixes_delta(),
+        "the blend holds a smooth gold beside a rough plastic"
+    );
     let leaf = scene.materials.iter().find(|m| m.name == "leaf").unwrap();
     assert_eq!(
         leaf.opacity.as_ref().map(|o| o.range()),

@@ -68,25 +68,63 @@ impl<'a> Textures<'a> {
 
     /// A number in [0, 1] that may be a texture (its luminance, every texel's in [0, 1]).
     pub(super) fn unit_scalar(&mut self, ctx: &Ctx, field: &str, s: &ScalarDesc) -> Result<Scalar> {
+        self.scalar(ctx, field, s, (1.0, "a number"))
+    }
+
+    /// A number in [0, `max`] that may be a texture (its luminance, every texel's in range);
+    /// `what` names it in the error ("a roughness").
+    pub(super) fn scalar(
+        &mut self,
+        ctx: &Ctx,
+        field: &str,
+        s: &ScalarDesc,
+        (max, what): (f64, &str),
+    ) -> Result<Scalar> {
         let scalar = match s {
-            ScalarDesc::Value(v) => Scalar::Constant(*v as f32),
+            ScalarDesc::Value(v) if v.is_finite() => Scalar::Constant(*v as f32),
+            ScalarDesc::Value(v) => {
+                return Err(ctx.err(field, format!("expected {what} in [0, {}], got {}", num(max), num(*v))));
+            }
             ScalarDesc::Texture(t) => Scalar::Texture(self.texture(ctx, field, t)?),
         };
         let (lo, hi) = scalar.range();
-        if (0.0..=1.0).contains(&lo) && (0.0..=1.0).contains(&hi) {
+        let within = |x: f32| (0.0..=max).contains(&(x as f64));
+        if within(lo) && within(hi) {
             return Ok(scalar);
         }
         Err(ctx.err(
             field,
             match s {
-                ScalarDesc::Value(v) => format!("expected a number in [0, 1], got {}", num(*v)),
+                ScalarDesc::Value(v) => format!("expected {what} in [0, {}], got {}", num(max), num(*v)),
                 ScalarDesc::Texture(_) => format!(
-                    "expected every texture value in [0, 1], got luminances from {} to {}",
+                    "expected every texture value in [0, {}], got luminances from {} to {}",
+                    num(max),
                     num(lo as f64),
                     num(hi as f64)
                 ),
             },
         ))
+    }
+
+    /// A number parameter of the model being built: a number as it is, or a texture
+    /// remembered for `param` (the model holds its largest value).
+    pub(super) fn number_param(
+        &mut self,
+        ctx: &Ctx,
+        field: &str,
+        s: &ScalarDesc,
+        range: (f64, &str),
+        param: ColorParam,
+    ) -> Result<f32> {
+        Ok(match self.scalar(ctx, field, s, range)? {
+            Scalar::Constant(v) => v,
+            t @ Scalar::Texture(_) => {
+                let hi = t.range().1;
+                let Scalar::Texture(t) = t else { unreachable!() };
+                self.params.push((param, t));
+                hi
+            }
+        })
     }
 
     fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {

@@ -13,7 +13,6 @@ use crate::pixel_filter::{FilterKind, MAX_RADIUS, PixelFilter};
 use crate::resources::{check_memory, film_bytes, memory_limit};
 use crate::scene::Material;
 use crate::scene::desc::{self, MaterialDesc, Triple};
-use crate::texture::Scalar;
 use glam::{DVec3, Vec3};
 use std::collections::BTreeMap;
 
@@ -406,15 +405,13 @@ fn blend(ctx: &Ctx, field: &str, m: &desc::Blend, textures: &mut Textures) -> Re
         }
     }
     let weight = m.weight.clone().unwrap_or(desc::ScalarDesc::Value(0.5));
-    let weight = match textures.unit_scalar(ctx, &format!("{field}.weight"), &weight)? {
-        Scalar::Constant(w) => w,
-        Scalar::Texture(t) => {
-            // The model holds the largest weight, as textured colours hold their largest value.
-            let (_, hi) = Scalar::Texture(t.clone()).range();
-            textures.params.push((ColorParam::Weight, t));
-            hi
-        }
-    };
+    let weight = textures.number_param(
+        ctx,
+        &format!("{field}.weight"),
+        &weight,
+        (1.0, "a weight"),
+        ColorParam::Weight,
+    )?;
     let [b0, b1]: [Bsdf; 2] = bsdfs.try_into().expect("validated: two materials");
     Ok(Bsdf::Blend(Box::new(Blend {
         weight,
@@ -459,8 +456,8 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
             transmittance: rgb(m.transmittance),
         }),
         MaterialDesc::Conductor(m) => rough::conductor(ctx, field, m)?,
-        MaterialDesc::RoughConductor(m) => rough::rough_conductor(ctx, field, m)?,
-        MaterialDesc::RoughDielectric(m) => rough::rough_dielectric(ctx, field, m)?,
+        MaterialDesc::RoughConductor(m) => rough::rough_conductor(ctx, field, m, textures)?,
+        MaterialDesc::RoughDielectric(m) => rough::rough_dielectric(ctx, field, m, textures)?,
         MaterialDesc::RoughPlastic(m) => rough::rough_plastic(ctx, field, m, textures)?,
         MaterialDesc::Plastic(m) => rough::plastic(ctx, field, m, textures)?,
         MaterialDesc::OneSided(m) => {

@@ -198,6 +198,8 @@ impl<'a, 'i> Reader<'a, 'i> {
     fn scalar_texture(&mut self, o: &mut Obj<'a, 'i>, name: &str) -> Result<Option<desc::ScalarDesc>> {
         Ok(match self.texture_colour(o, name)? {
             None => None,
+            // A grey value (a <float>) as it is; a colour's luminance, as Mitsuba's eval_1.
+            Some(Color::Rgb(c)) if c.0[0] == c.0[1] && c.0[1] == c.0[2] => Some(desc::ScalarDesc::Value(c.0[0])),
             Some(Color::Rgb(c)) => Some(desc::ScalarDesc::Value(crate::color::luminance(
                 glam::DVec3::from_array(c.0).as_vec3(),
             ) as f64)),
@@ -268,9 +270,9 @@ impl<'a, 'i> Reader<'a, 'i> {
     fn roughness(&mut self, o: &mut Obj<'a, 'i>) -> Result<Roughness> {
         Ok(Roughness {
             distribution: self.string(o, "distribution")?.map(|(_, d)| d),
-            alpha: self.float(o, "alpha")?,
-            alpha_u: self.float(o, "alpha_u")?,
-            alpha_v: self.float(o, "alpha_v")?,
+            alpha: self.scalar_texture(o, "alpha")?,
+            alpha_u: self.scalar_texture(o, "alpha_u")?,
+            alpha_v: self.scalar_texture(o, "alpha_v")?,
             sample_visible: self.boolean(o, "sample_visible")?,
         })
     }
