@@ -41,6 +41,9 @@ pub struct Camera {
     pub filter: PixelFilter,
     /// Pinhole (default), thin lens or orthographic.
     pub lens: Lens,
+    /// The image mirrored left–right: raster x grows along up × view instead of view × up
+    /// (pbrt's left-handed camera space, [`Camera::mirrored`]).
+    pub flip_x: bool,
     /// Camera basis: right, true up, forward (unit vectors).
     right: Vec3,
     true_up: Vec3,
@@ -70,6 +73,7 @@ impl Camera {
             crop_offset: (0, 0),
             filter: PixelFilter::Box,
             lens: Lens::Pinhole,
+            flip_x: false,
             right,
             true_up,
             forward,
@@ -89,6 +93,16 @@ impl Camera {
     }
 
     /// The same camera with lens `lens` (the caller has checked its parameters are positive).
+    /// The same camera with its image mirrored left–right, as pbrt's cameras see: pbrt's
+    /// `LookAt` makes camera-space x = up × view and maps it to raster x, the mirror image of
+    /// a right-handed camera's (Mitsuba's importer of pbrt scenes scales x by −1 likewise).
+    /// Every projection reads the `right` axis, so all of them mirror together.
+    pub fn mirrored(mut self) -> Self {
+        self.flip_x = !self.flip_x;
+        self.right = -self.right;
+        self
+    }
+
     pub fn with_lens(mut self, lens: Lens) -> Self {
         self.lens = lens;
         self
@@ -121,6 +135,9 @@ impl Camera {
         );
         if (offset, size) != ((0, 0), film) {
             c = c.with_crop(offset, size);
+        }
+        if self.flip_x {
+            c = c.mirrored();
         }
         c
     }

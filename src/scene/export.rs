@@ -116,6 +116,10 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             let _ = writeln!(x, "        <transform name=\"to_world\">");
         }
     }
+    if c.flip_x {
+        // Mirrored before it is placed: the frame's first column turns around.
+        let _ = writeln!(x, "            <scale x=\"-1\"/>");
+    }
     let _ = writeln!(
         x,
         "            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>",
@@ -168,6 +172,13 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         let t = shape_transform(&file, &field, transform)?;
         let mut props = String::new();
         let kind = match shape {
+            ShapeDesc::Triangles(_) => {
+                return Err(err(
+                    &field,
+                    "a `triangles` shape lives in the scene file, and Mitsuba 3 reads meshes from files \
+                     only: write it to an OBJ or PLY file first",
+                ));
+            }
             ShapeDesc::Quad(q) => {
                 if subdivided(q.subdivide) {
                     return Err(err(&field, SUBDIVIDE_REFUSED));

@@ -16,6 +16,7 @@ pub mod light_selection;
 pub mod limits;
 pub mod load;
 pub mod mitsuba;
+pub mod pbrt;
 
 pub use load::load_scene;
 

@@ -23,6 +23,7 @@
 //!                                   # (default) | thin (Mitsuba's thinlens) | orthographic
 //!                                   # (`height`, optional `width` in scene units: the view's
 //!                                   # extent; fov_y is then not needed)
+//! flip_x = false                    # optional: mirror the image left-right (pbrt's cameras)
 //! crop = { offset = [20, 10], size = [40, 30] }  # optional: render only the film's pixels
 //!                                   # [x, x + w) × [y, y + h) (offset default [0, 0]); the
 //!                                   # field of view stays the full film's
@@ -150,6 +151,14 @@
 //! p1 = [0.45, 0.1, 0.1]             #   [0, 0, 1]); p1 != p0
 //! radius = 0.05                     # > 0, default 1
 //! flip_normals = false              # optional: front side inward
+//! [[shapes]]
+//! type = "triangles"                # a mesh written here (pbrt's trianglemesh)
+//! material = "white"
+//! positions = [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]]
+//! indices = [0, 1, 2]               # in threes, each < the number of positions (optional
+//!                                   #   for a single triangle); front side by the winding
+//! # normals = [[0, 0, 1], ...]      # optional, one per position: they decide the front side
+//! # uv = [[0, 0], [1, 0], [0, 1]]   # optional texture coordinates, one per position
 //! [[shapes]]
 //! type = "mesh"                     # Wavefront OBJ (triangulated; MTL materials are ignored),
 //! material = "white"                #   Stanford PLY or Mitsuba .serialized, by the extension
@@ -387,6 +396,10 @@ pub struct CameraDesc {
     pub crop: Option<CropDesc>,
     /// How rays leave the camera (default: a pinhole).
     pub lens: Option<LensDesc>,
+    /// Mirror the image left–right (default false): pbrt's cameras (a pbrt-v4 scene imports
+    /// with it set).
+    #[serde(default)]
+    pub flip_x: bool,
 }
 
 /// The camera's lens (Mitsuba's sensors of the same kinds); `type` selects it.
@@ -469,300 +482,6 @@ fn default_up() -> Triple {
     Fixed([0.0, 1.0, 0.0])
 }
 
-fn white() -> Triple {
-    Fixed([1.0, 1.0, 1.0])
-}
-
-/// A material; `type` selects the variant.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum MaterialDesc {
-    Diffuse(Diffuse),
-    Mirror(Mirror),
-    Dielectric(Dielectric),
-    Phong(Phong),
-    Ward(Ward),
-    DiffuseTransmission(DiffuseTransmission),
-    ThinDielectric(ThinDielectric),
-    Conductor(Conductor),
-    RoughConductor(RoughConductor),
-    RoughDielectric(RoughDielectric),
-    RoughPlastic(RoughPlastic),
-    Plastic(Plastic),
-    OneSided(OneSided),
-    Mask(Mask),
-    Blend(Blend),
-}
-
-/// A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Plastic {
-    /// Default 0.5.
-    pub diffuse_reflectance: Option<Color>,
-    pub specular_reflectance: Option<Triple>,
-    /// Relative index of the coating; default 1.49 (polypropylene), Mitsuba's default.
-    pub ior: Option<f64>,
-    pub nonlinear: Option<bool>,
-}
-
-/// A reflecting material that is black seen from behind, as Mitsuba 3's BSDFs are without their
-/// `twosided` wrapper (ours reflect on both sides otherwise).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OneSided {
-    /// Any reflecting material (not a dielectric, a sheet or diffuse transmission).
-    pub bsdf: Box<MaterialDesc>,
-}
-
-/// Mitsuba's `mask`: the material scatters light with probability `opacity` (α) and lets it
-/// pass straight through otherwise ([`crate::scene::Scene::passes_through`]).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Mask {
-    /// α in [0, 1] (1 opaque): a number, or a texture whose luminance is α (default 0.5, as
-    /// Mitsuba).
-    pub opacity: Option<ScalarDesc>,
-    /// Any material but another mask.
-    pub bsdf: Box<MaterialDesc>,
-}
-
-/// Mitsuba's `blendbsdf`: (1 − w) × the first material + w × the second.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Blend {
-    /// w in [0, 1]: a number, or a texture whose luminance is w (default 0.5, as Mitsuba).
-    pub weight: Option<ScalarDesc>,
-    /// Exactly two materials without textures (reflecting or transmitting, not masks).
-    pub bsdfs: Vec<MaterialDesc>,
-}
-
-/// A number parameter that may be a texture instead (its luminance).
-#[derive(Clone, Debug, PartialEq)]
-pub enum ScalarDesc {
-    Value(f64),
-    Texture(Box<TextureDesc>),
-}
-
-/// Lambertian reflection.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Diffuse {
-    pub reflectance: Color,
-}
-
-/// A colour parameter: an RGB triple, or a texture table.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Color {
-    Rgb(Triple),
-    Texture(Box<TextureDesc>),
-}
-
-impl From<Triple> for Color {
-    fn from(v: Triple) -> Self {
-        Color::Rgb(v)
-    }
-}
-
-/// A texture (Mitsuba 3's `checkerboard` and `bitmap`); `type` selects the variant.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum TextureDesc {
-    Checkerboard(CheckerboardDesc),
-    Bitmap(BitmapDesc),
-}
-
-/// Two colours in a checker pattern with cells ½ × ½ in (u, v) (after `to_uv`).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CheckerboardDesc {
-    /// Default 0.4 (Mitsuba's).
-    pub color0: Option<Triple>,
-    /// Default 0.2.
-    pub color1: Option<Triple>,
-    pub to_uv: Option<UvTransformDesc>,
-}
-
-/// An image file: PNG, JPEG (sRGB) or OpenEXR (linear).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BitmapDesc {
-    /// Relative to the directory of the scene file.
-    pub file: String,
-    /// "bilinear" (default) or "nearest".
-    pub filter: Option<String>,
-    /// "repeat" (default), "mirror" or "clamp".
-    pub wrap: Option<String>,
-    /// Use 8-bit values as they are instead of decoding sRGB (default false).
-    pub raw: Option<bool>,
-    pub to_uv: Option<UvTransformDesc>,
-}
-
-/// An affine map of texture coordinates: `scale` then `offset`, or a `matrix` alone (2 rows of
-/// 3: (u', v') = M (u, v) + t with t the last column).
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct UvTransformDesc {
-    pub scale: Option<Fixed<f64, 2>>,
-    pub offset: Option<Fixed<f64, 2>>,
-    pub matrix: Option<Fixed<Fixed<f64, 3>, 2>>,
-}
-
-/// Ideal specular reflection.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Mirror {
-    #[serde(default = "white")]
-    pub reflectance: Triple,
-}
-
-/// A smooth dielectric interface (glass).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Dielectric {
-    /// Relative index of refraction (inside over outside).
-    pub ior: f64,
-}
-
-/// A thin dielectric sheet (Mitsuba's `thindielectric`).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ThinDielectric {
-    /// Index of refraction of the sheet relative to its surroundings.
-    pub ior: f64,
-    #[serde(default = "white")]
-    pub reflectance: Triple,
-    #[serde(default = "white")]
-    pub transmittance: Triple,
-}
-
-/// The microfacet distribution of a rough model, with Mitsuba 3's parameter names and
-/// defaults: Beckmann, α = 0.1, visible-normal sampling.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Roughness {
-    /// "beckmann" (default) or "ggx".
-    pub distribution: Option<String>,
-    /// Isotropic roughness (default 0.1); or both of `alpha_u`, `alpha_v`. Each a number or
-    /// (rough conductors and dielectrics, as in Mitsuba) a texture.
-    pub alpha: Option<ScalarDesc>,
-    pub alpha_u: Option<ScalarDesc>,
-    pub alpha_v: Option<ScalarDesc>,
-    pub sample_visible: Option<bool>,
-}
-
-/// The fields of [`Roughness`], one by one in each rough material (`deny_unknown_fields` does
-/// not combine with `flatten`).
-macro_rules! rough_material {
-    ($(#[$doc:meta])* $name:ident { $($(#[$fdoc:meta])* pub $field:ident: $ty:ty,)* }) => {
-        $(#[$doc])*
-        #[derive(Clone, Debug, Deserialize)]
-        #[serde(deny_unknown_fields)]
-        pub struct $name {
-            $($(#[$fdoc])* pub $field: $ty,)*
-            pub distribution: Option<String>,
-            pub alpha: Option<ScalarDesc>,
-            pub alpha_u: Option<ScalarDesc>,
-            pub alpha_v: Option<ScalarDesc>,
-            pub sample_visible: Option<bool>,
-        }
-
-        impl $name {
-            pub fn roughness(&self) -> Roughness {
-                Roughness {
-                    distribution: self.distribution.clone(),
-                    alpha: self.alpha.clone(),
-                    alpha_u: self.alpha_u.clone(),
-                    alpha_v: self.alpha_v.clone(),
-                    sample_visible: self.sample_visible,
-                }
-            }
-        }
-    };
-}
-
-/// A smooth conductor (Mitsuba's `conductor`): a named metal, or η and k (default η = 0,
-/// k = 1: a perfect mirror).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Conductor {
-    /// One of Mitsuba's named conductors ("Au", "Cu", …; `bench` lists them on a wrong name).
-    pub material: Option<String>,
-    pub eta: Option<Triple>,
-    pub k: Option<Triple>,
-    pub specular_reflectance: Option<Triple>,
-}
-
-rough_material! {
-    /// A rough conductor (Mitsuba's `roughconductor`).
-    RoughConductor {
-        pub material: Option<String>,
-        pub eta: Option<Triple>,
-        pub k: Option<Triple>,
-        pub specular_reflectance: Option<Triple>,
-    }
-}
-
-rough_material! {
-    /// A rough dielectric (Mitsuba's `roughdielectric`).
-    RoughDielectric {
-        /// Relative index of refraction (inside over outside), > 0 and ≠ 1.
-        pub ior: f64,
-        pub specular_reflectance: Option<Triple>,
-        pub specular_transmittance: Option<Triple>,
-    }
-}
-
-rough_material! {
-    /// A diffuse base under a rough dielectric coating (Mitsuba's `roughplastic`).
-    RoughPlastic {
-        /// Default 0.5.
-        pub diffuse_reflectance: Option<Color>,
-        pub specular_reflectance: Option<Triple>,
-        /// Relative index of the coating; default 1.49 (polypropylene), Mitsuba's default.
-        pub ior: Option<f64>,
-        pub nonlinear: Option<bool>,
-    }
-}
-
-impl RoughConductor {
-    /// The conductor part of the description.
-    pub fn conductor(&self) -> Conductor {
-        Conductor {
-            material: self.material.clone(),
-            eta: self.eta,
-            k: self.k,
-            specular_reflectance: self.specular_reflectance,
-        }
-    }
-}
-
-/// Energy-conserving modified Phong.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Phong {
-    pub diffuse: Triple,
-    pub specular: Triple,
-    pub exponent: f64,
-}
-
-/// Anisotropic Ward.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Ward {
-    pub diffuse: Triple,
-    pub specular: Triple,
-    pub alpha_x: f64,
-    pub alpha_y: f64,
-}
-
-/// Lambertian reflection and Lambertian transmission.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DiffuseTransmission {
-    pub reflectance: Triple,
-    pub transmittance: Triple,
-}
-
 /// One transform step or a list of steps, applied in list order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TransformDesc(pub Vec<TransformStep>);
@@ -804,7 +523,9 @@ pub enum ConeDeg {
     PerSegment(Vec<f64>),
 }
 
+mod materials;
 mod shapes;
 mod visitors;
 
+pub use materials::*;
 pub use shapes::*;

@@ -14,6 +14,22 @@ pub enum ShapeDesc {
     Mesh(Mesh),
     Disk(Disk),
     Cylinder(Cylinder),
+    Triangles(Triangles),
+}
+
+/// A triangle mesh given in the file itself (pbrt's `trianglemesh`): `positions`, and
+/// `indices` in threes (optional for a single triangle); optional per-vertex `normals` (they
+/// decide the front side, as a mesh file's do) and texture coordinates `uv`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Triangles {
+    pub material: String,
+    pub positions: Vec<Triple>,
+    pub indices: Option<Vec<i64>>,
+    pub normals: Option<Vec<Triple>>,
+    pub uv: Option<Vec<Fixed<f64, 2>>>,
+    pub transform: Option<TransformDesc>,
+    pub emission: Option<EmissionDesc>,
 }
 
 /// A parallelogram: `corner`, `edge_u`, `edge_v`, or an axis-aligned rectangle: `center`,
@@ -128,6 +144,7 @@ impl ShapeDesc {
             ShapeDesc::Mesh(_) => "mesh",
             ShapeDesc::Disk(_) => "disk",
             ShapeDesc::Cylinder(_) => "cylinder",
+            ShapeDesc::Triangles(_) => "triangles",
         }
     }
 
@@ -140,6 +157,7 @@ impl ShapeDesc {
             ShapeDesc::Mesh(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
             ShapeDesc::Disk(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
             ShapeDesc::Cylinder(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
+            ShapeDesc::Triangles(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
         }
     }
 }

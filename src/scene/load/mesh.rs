@@ -34,6 +34,14 @@ pub(super) enum TriangleError {
     OutOfRange(String),
 }
 
+/// Where a mesh's shading normals come from: none (`face`), the file's, or Mitsuba's smooth
+/// ones when the file has none (`smooth`).
+#[derive(Clone, Copy)]
+struct MeshNormals {
+    face: bool,
+    smooth: bool,
+}
+
 impl Builder<'_> {
     pub(super) fn shape(
         &mut self,
@@ -180,6 +188,7 @@ impl Builder<'_> {
                 Ok(())
             }
             ShapeDesc::Mesh(m) => self.mesh(field, m, &xf, attrs),
+            ShapeDesc::Triangles(t) => self.inline_triangles(field, t, &xf, attrs),
             ShapeDesc::Disk(d) => self.disk(field, d, &xf, attrs),
             ShapeDesc::Cylinder(c) => self.cylinder(field, c, &xf, attrs),
         }
@@ -355,15 +364,95 @@ impl Builder<'_> {
             }
         };
         self.hashed.push(bytes);
+        let normals = MeshNormals {
+            face: face_normals,
+            smooth: m.smooth_normals,
+        };
+        self.add_meshes((field, &file_field, &shown), &meshes, normals, xf, attrs)
+    }
+
+    /// A mesh written in the scene file ([`desc::Triangles`]): every index a vertex, the
+    /// per-vertex arrays as long as `positions`.
+    fn inline_triangles(&mut self, field: &str, t: &desc::Triangles, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
+        let ctx = self.ctx;
+        let f = |key: &str| format!("{field}.{key}");
+        let n = t.positions.len();
+        let indices: Vec<i64> = match &t.indices {
+            Some(i) => i.clone(),
+            None if n == 3 => vec![0, 1, 2],
+            None => {
+                return Err(ctx.err(
+                    &f("indices"),
+                    format!("expected indices for {n} positions (3 need none)"),
+                ));
+            }
+        };
+        if indices.is_empty() || !indices.len().is_multiple_of(3) {
+            return Err(ctx.err(
+                &f("indices"),
+                format!("expected a multiple of 3 indices, got {}", indices.len()),
+            ));
+        }
+        if let Some(bad) = indices.iter().find(|&&i| i < 0 || i as usize >= n) {
+            return Err(ctx.err(&f("indices"), format!("index {bad} is not a vertex (0..{n})")));
+        }
+        check_memory(
+            "the scene's triangles",
+            (self.primitives.len() + indices.len() / 3) as u64 * BYTES_PER_TRIANGLE,
+            memory_limit()?,
+        )
+        .map_err(|e| ctx.err(&f("indices"), e))?;
+        let per_vertex = |key: &str, len: Option<usize>| -> Result<()> {
+            match len {
+                Some(l) if l != n => Err(ctx.err(&f(key), format!("expected {n} entries (one per position), got {l}"))),
+                _ => Ok(()),
+            }
+        };
+        per_vertex("normals", t.normals.as_ref().map(Vec::len))?;
+        per_vertex("uv", t.uv.as_ref().map(Vec::len))?;
+        let point = |p: &desc::Triple| DVec3::from_array(p.0);
+        let mesh = TriMesh {
+            name: field.to_string(),
+            positions: t.positions.iter().map(point).collect(),
+            normals: t.normals.as_ref().map(|ns| ns.iter().map(point).collect()),
+            uvs: t
+                .uv
+                .as_ref()
+                .map(|uv| uv.iter().map(|t| DVec2::from_array(t.0)).collect()),
+            triangles: indices
+                .chunks(3)
+                .map(|c| [c[0] as usize, c[1] as usize, c[2] as usize])
+                .collect(),
+        };
+        let normals = MeshNormals {
+            face: false,
+            smooth: false,
+        };
+        self.add_meshes((field, &f("positions"), "the mesh"), &[mesh], normals, xf, attrs)
+    }
+
+    /// Adds the triangles of `meshes` placed by `xf`, with shading normals by `normals`;
+    /// `(field, file_field, shown)` name the shape, its data and its source in messages. Refuses
+    /// a mesh with a non-finite or huge vertex, or without one triangle of positive area.
+    fn add_meshes(
+        &mut self,
+        (field, file_field, shown): (&str, &str, &str),
+        meshes: &[TriMesh],
+        normals_from: MeshNormals,
+        xf: &Xform,
+        attrs: PrimAttrs,
+    ) -> Result<()> {
+        let ctx = self.ctx;
+        let (face_normals, smooth_normals) = (normals_from.face, normals_from.smooth);
         let (mut added, mut skipped) = (0usize, 0usize);
-        for mesh in &meshes {
+        for mesh in meshes {
             if let Some(bad) = mesh
                 .positions
                 .iter()
                 .position(|p| !p.is_finite() || p.abs().max_element() > MAX_COORD)
             {
                 return Err(ctx.err(
-                    &file_field,
+                    file_field,
                     format!(
                         "{shown}: vertex {} of object {:?} has a non-finite or huge coordinate",
                         bad + 1,
@@ -375,7 +464,7 @@ impl Builder<'_> {
                 None
             } else if let Some(n) = mesh.normals.as_ref().filter(|n| n.len() == mesh.positions.len()) {
                 Some(n.clone())
-            } else if m.smooth_normals {
+            } else if smooth_normals {
                 // Mitsuba computes them from the transformed positions; back to the file's
                 // frame (normal matrix⁻¹ = Mᵀ) for `triangle`, which maps them forward again.
                 let world: Vec<DVec3> = mesh.positions.iter().map(|&p| xf.point(p)).collect();
@@ -408,7 +497,7 @@ impl Builder<'_> {
             } else {
                 "no triangles".to_string()
             };
-            return Err(ctx.err(&file_field, format!("{shown}: {why}")));
+            return Err(ctx.err(file_field, format!("{shown}: {why}")));
         }
         self.stats.degenerate_triangles_skipped += skipped;
         Ok(())

@@ -195,6 +195,14 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
             imported.warnings,
             imported.included,
         )
+    } else if super::pbrt::is_pbrt(path) && source.params.is_empty() {
+        let imported = super::pbrt::import(&ctx.file, &dir, text)?;
+        (
+            imported.desc,
+            Some(imported.shape_labels),
+            imported.warnings,
+            imported.included,
+        )
     } else if let Some((name, _)) = source.params.first() {
         return Err(ctx.whole(format!(
             "parameter {name:?}: scene parameters apply to Mitsuba XML scenes (`$name`), not to TOML scenes"

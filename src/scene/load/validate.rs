@@ -176,9 +176,12 @@ pub(super) fn camera(ctx: &Ctx, c: &desc::CameraDesc) -> Result<Camera> {
             ),
         ));
     }
-    let camera = Camera::new(eye.as_vec3(), look_at.as_vec3(), up.as_vec3(), fov_y as f32, w, h)
+    let mut camera = Camera::new(eye.as_vec3(), look_at.as_vec3(), up.as_vec3(), fov_y as f32, w, h)
         .with_filter(pixel_filter(ctx, c.filter)?)
         .with_lens(lens(ctx, c.lens, w as f64 / h as f64)?);
+    if c.flip_x {
+        camera = camera.mirrored();
+    }
     let Some(crop) = c.crop else {
         return Ok(camera);
     };

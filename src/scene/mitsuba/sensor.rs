@@ -118,9 +118,9 @@ impl<'a, 'i> Reader<'a, 'i> {
                 "to_world: expected a rotation and translation only (no scale or shear on a camera)",
             ));
         }
-        if DMat3::from_cols(left, up, fwd).determinant() < 0.0 {
-            return Err(self.err(n, "to_world: a mirrored camera (negative determinant) is not supported"));
-        }
+        // A mirrored frame (pbrt's convention, which Mitsuba users write as a scale of −1 in
+        // x) mirrors the image.
+        let flip_x = DMat3::from_cols(left, up, fwd).determinant() < 0.0;
         let (wf, hf) = (w as f64, h as f64);
         let t = (0.5 * fov.to_radians()).tan();
         let half_h = match axis.as_str() {
@@ -156,6 +156,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             // A sensor without a film has Mitsuba's default film and its Gaussian.
             filter: Some(filter.unwrap_or(desc::FilterDesc::Gaussian(desc::GaussianFilterDesc { stddev: None }))),
             crop,
+            flip_x,
         })
     }
 

@@ -1,0 +1,431 @@
+//! What pbrt-v4's directives mean, as our scene description: the graphics state (transform,
+//! material, area light, orientation) and each camera, material, texture, shape and light.
+//!
+//! Decisions (pbrt-v4's semantics, `src/pbrt/scene.cpp` and the file-format page):
+//! - Transforms post-multiply the current transform; `Transform`/`ConcatTransform` take the
+//!   matrix column by column. The camera is the inverse of the transform at `Camera`; its image
+//!   is our camera's mirrored unless that transform mirrors (module doc of [`super`]).
+//! - A triangle's front side: its vertex normals where it has them, else its winding,
+//!   turned around by `ReverseOrientation` and by a transform that mirrors (pbrt's
+//!   `reverseOrientation ^ transformSwapsHandedness`); a disk's and a cylinder's by
+//!   `ReverseOrientation` alone (their normals are transformed as normals).
+//! - Colours: `rgb` as it is (pbrt-v4 normalises an RGB illuminant to the colour space's
+//!   white, which an RGB render shows as the same RGB); `spectrum` lists as Mitsuba's RGB
+//!   variants convert them ([`crate::spectrum`]); `blackbody` for lights at a luminance of 1
+//!   (pbrt-v4 normalises light spectra to 1 nit), times `scale`.
+//! - Roughness: pbrt-v4's microfacets are Trowbridge–Reitz (GGX) with visible-normal
+//!   sampling; `remaproughness` (default true) makes α = √roughness; α below 10⁻³ is smooth
+//!   (pbrt's `EffectivelySmooth`).
+//! - `conductor`'s named spectra `metal-X-eta`/`metal-X-k` become Mitsuba's named conductor X
+//!   (its measured data, not pbrt's own tables: warned); its default is copper.
+//! - `mix` with `amount` a = our blend of weight a (pbrt picks the second material with
+//!   probability a per hit: the same mean).
+
+use super::syntax::{Directive, Param, Value};
+use crate::error::{Error, Result};
+use crate::scene::desc::{self, Color, Fixed, MaterialDesc, SceneDesc, ShapeDesc, TextureDesc, TransformDesc, Triple};
+use glam::{DMat3, DMat4, DVec3, DVec4};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The graphics state `AttributeBegin` saves.
+#[derive(Clone)]
+struct State {
+    ctm: DMat4,
+    material: Option<String>,
+    area_light: Option<desc::EmissionDesc>,
+    reverse_orientation: bool,
+}
+
+pub struct Translator<'a> {
+    file: &'a str,
+    dir: &'a Path,
+    state: State,
+    stack: Vec<State>,
+    named_coordinate_systems: BTreeMap<String, DMat4>,
+    world: bool,
+    camera: Option<desc::CameraDesc>,
+    camera_at: String,
+    resolution: [u32; 2],
+    filter: Option<desc::FilterDesc>,
+    materials: BTreeMap<String, MaterialDesc>,
+    textures: BTreeMap<String, TextureDesc>,
+    anonymous: usize,
+    shapes: Vec<ShapeDesc>,
+    labels: Vec<String>,
+    lights: Vec<desc::LightDesc>,
+    environment: Option<desc::EnvironmentDesc>,
+    warnings: Vec<String>,
+}
+
+impl<'a> Translator<'a> {
+    pub fn new(file: &'a str, dir: &'a Path) -> Self {
+        Self {
+            file,
+            dir,
+            state: State {
+                ctm: DMat4::IDENTITY,
+                material: None,
+                area_light: None,
+                reverse_orientation: false,
+            },
+            stack: Vec::new(),
+            named_coordinate_systems: BTreeMap::new(),
+            world: false,
+            camera: None,
+            camera_at: String::new(),
+            resolution: [1280, 720],
+            filter: None,
+            materials: BTreeMap::new(),
+            textures: BTreeMap::new(),
+            anonymous: 0,
+            shapes: Vec::new(),
+            labels: Vec::new(),
+            lights: Vec::new(),
+            environment: None,
+            warnings: Vec::new(),
+        }
+    }
+
+    pub fn directive(&mut self, d: &Directive) -> Result<()> {
+        let nums = |n: usize| -> Result<Vec<f64>> {
+            let v: Vec<f64> = d
+                .args
+                .iter()
+                .filter_map(|a| if let Value::Num(x) = a { Some(*x) } else { None })
+                .collect();
+            if v.len() == n && d.args.len() == n {
+                Ok(v)
+            } else {
+                Err(d.err(format!("expected {n} numbers")))
+            }
+        };
+        let name = || -> Result<String> {
+            match &d.args[..] {
+                [Value::Str(s)] => Ok(s.clone()),
+                _ => Err(d.err("expected one quoted name")),
+            }
+        };
+        match d.name.as_str() {
+            "Identity" => self.state.ctm = DMat4::IDENTITY,
+            "Translate" => {
+                let v = nums(3)?;
+                self.concat(DMat4::from_translation(DVec3::new(v[0], v[1], v[2])));
+            }
+            "Scale" => {
+                let v = nums(3)?;
+                self.concat(DMat4::from_scale(DVec3::new(v[0], v[1], v[2])));
+            }
+            "Rotate" => {
+                let v = nums(4)?;
+                let axis = DVec3::new(v[1], v[2], v[3]);
+                if axis.length_squared() == 0.0 {
+                    return Err(d.err("the rotation axis is zero"));
+                }
+                self.concat(DMat4::from_axis_angle(axis.normalize(), v[0].to_radians()));
+            }
+            "LookAt" => {
+                let v = nums(9)?;
+                let (eye, look, up) = (
+                    DVec3::new(v[0], v[1], v[2]),
+                    DVec3::new(v[3], v[4], v[5]),
+                    DVec3::new(v[6], v[7], v[8]),
+                );
+                let dir = (look - eye).normalize_or_zero();
+                let right = up.normalize_or_zero().cross(dir);
+                if dir == DVec3::ZERO || right.length() < 1e-9 {
+                    return Err(d.err("eye and look point coincide, or up is parallel to the view"));
+                }
+                let right = right.normalize();
+                let new_up = dir.cross(right);
+                let camera_to_world =
+                    DMat4::from_cols(right.extend(0.0), new_up.extend(0.0), dir.extend(0.0), eye.extend(1.0));
+                self.concat(camera_to_world.inverse());
+            }
+            "Transform" | "ConcatTransform" => {
+                let m = column_major(&nums(16)?);
+                if d.name == "Transform" {
+                    self.state.ctm = m;
+                } else {
+                    self.concat(m);
+                }
+            }
+            "CoordinateSystem" => {
+                self.named_coordinate_systems.insert(name()?, self.state.ctm);
+            }
+            "CoordSysTransform" => {
+                let n = name()?;
+                self.state.ctm = *self
+                    .named_coordinate_systems
+                    .get(&n)
+                    .ok_or_else(|| d.err(format!("no coordinate system named {n:?}")))?;
+            }
+            "ReverseOrientation" => self.state.reverse_orientation = !self.state.reverse_orientation,
+            "AttributeBegin" => self.stack.push(self.state.clone()),
+            "AttributeEnd" => {
+                self.state = self.stack.pop().ok_or_else(|| d.err("no AttributeBegin to end"))?;
+            }
+            "WorldBegin" => {
+                self.world = true;
+                self.named_coordinate_systems.insert("world".into(), DMat4::IDENTITY);
+                self.state.ctm = DMat4::IDENTITY;
+            }
+            "Camera" => self.camera(d)?,
+            "Film" => self.film(d)?,
+            "PixelFilter" => self.pixel_filter(d)?,
+            "Sampler" | "Integrator" | "Accelerator" | "Option" => {
+                self.warn(d, "ignored: the experiment file chooses the strategy and the samples");
+            }
+            "ColorSpace" => match &d.args[..] {
+                [Value::Str(s)] if s == "srgb" => {}
+                _ => return Err(d.err("only the srgb colour space is rendered")),
+            },
+            "Material" => {
+                let kind = name()?;
+                let m = self.material(d, &kind, &d.params)?;
+                self.anonymous += 1;
+                let id = format!("material-{}", self.anonymous);
+                self.materials.insert(id.clone(), m);
+                self.state.material = Some(id);
+            }
+            "MakeNamedMaterial" => {
+                let n = name()?;
+                let kind = string_param(d, &d.params, "type")?.ok_or_else(|| d.err("expected \"string type\""))?;
+                let rest: Vec<Param> = d.params.iter().filter(|p| p.name != "type").cloned().collect();
+                let m = self.material(d, &kind, &rest)?;
+                self.materials.insert(format!("named:{n}"), m);
+            }
+            "NamedMaterial" => {
+                let n = name()?;
+                let id = format!("named:{n}");
+                if !self.materials.contains_key(&id) {
+                    return Err(d.err(format!("no material named {n:?} (MakeNamedMaterial first)")));
+                }
+                self.state.material = Some(id);
+            }
+            "Texture" => self.texture(d)?,
+            "Shape" => self.shape(d)?,
+            "AreaLightSource" => {
+                if name()? != "diffuse" {
+                    return Err(d.err("expected the \"diffuse\" area light"));
+                }
+                let scale = float_param(d, &d.params, "scale")?.unwrap_or(1.0);
+                let l = self.light_colour(d, "L")?.unwrap_or([1.0; 3]);
+                let two_sided = bool_param(d, &d.params, "twosided")?.unwrap_or(false);
+                check_known(d, &d.params, &["L", "scale", "twosided"])?;
+                self.state.area_light = Some(desc::EmissionDesc {
+                    radiance: Fixed(l.map(|c| c * scale)),
+                    two_sided,
+                });
+            }
+            "LightSource" => self.light(d)?,
+            other => {
+                return Err(d.err(format!(
+                    "{other} is not supported (object instancing, media, animated transforms and \
+                     named attributes are not read yet)"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    fn concat(&mut self, m: DMat4) {
+        self.state.ctm *= m;
+    }
+
+    fn warn(&mut self, d: &Directive, msg: &str) {
+        self.warnings.push(format!("{}, {}: {msg}", d.at, d.name));
+    }
+
+    fn camera(&mut self, d: &Directive) -> Result<()> {
+        let kind = match &d.args[..] {
+            [Value::Str(s)] => s.clone(),
+            _ => return Err(d.err("expected the camera type")),
+        };
+        let world_from_camera = self.state.ctm.inverse();
+        if !world_from_camera.is_finite() {
+            return Err(d.err("the camera transform is not invertible"));
+        }
+        self.named_coordinate_systems.insert("camera".into(), world_from_camera);
+        let col = |i: usize| world_from_camera.col(i).truncate();
+        let (x, y, z) = (col(0), col(1), col(2));
+        let rigid = [x, y, z].iter().all(|c| (c.length() - 1.0).abs() < 1e-4)
+            && x.dot(y).abs() < 1e-4
+            && x.dot(z).abs() < 1e-4
+            && y.dot(z).abs() < 1e-4;
+        if !rigid {
+            return Err(d.err("the camera transform must be a rotation, translation and mirror only (no scale)"));
+        }
+        let eye = col(3);
+        // Our camera's raster x follows view × up = z × y; pbrt's follows x.
+        let flip_x = DMat3::from_cols(x, y, z).determinant() > 0.0;
+        let params = &d.params;
+        let lens = match kind.as_str() {
+            "perspective" => {
+                check_known(d, params, &["fov", "lensradius", "focaldistance"])?;
+                let r = float_param(d, params, "lensradius")?.unwrap_or(0.0);
+                (r > 0.0).then(|| {
+                    let f = float_param(d, params, "focaldistance").ok().flatten().unwrap_or(1e6);
+                    desc::LensDesc::Thin(desc::ThinLensDesc {
+                        aperture_radius: r,
+                        focus_distance: f,
+                    })
+                })
+            }
+            "orthographic" => {
+                check_known(d, params, &[])?;
+                None
+            }
+            other => return Err(d.err(format!("unsupported camera {other:?} (perspective, orthographic)"))),
+        };
+        let fov = float_param(d, params, "fov")?.unwrap_or(90.0);
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(d.err(format!("fov: expected degrees in (0, 180), got {fov}")));
+        }
+        self.camera_at = d.at.clone();
+        self.camera = Some(desc::CameraDesc {
+            eye: Fixed(eye.to_array()),
+            look_at: Fixed((eye + z).to_array()),
+            up: Fixed(y.to_array()),
+            fov_y: Some(fov),
+            resolution: Fixed([1, 1]),
+            filter: None,
+            crop: None,
+            lens: if kind == "orthographic" {
+                Some(desc::LensDesc::Orthographic(desc::OrthographicDesc {
+                    height: 2.0,
+                    width: None,
+                }))
+            } else {
+                lens
+            },
+            flip_x,
+        });
+        Ok(())
+    }
+
+    fn film(&mut self, d: &Directive) -> Result<()> {
+        match &d.args[..] {
+            [Value::Str(s)] if s == "rgb" => {}
+            _ => return Err(d.err("expected the \"rgb\" film")),
+        }
+        check_known(d, &d.params, &["xresolution", "yresolution", "filename"])?;
+        for (i, key) in ["xresolution", "yresolution"].into_iter().enumerate() {
+            if let Some(v) = float_param(d, &d.params, key)? {
+                if !((1.0..=16384.0).contains(&v) && v.fract() == 0.0) {
+                    return Err(d.err(format!("{key}: expected an integer in 1..=16384, got {v}")));
+                }
+                self.resolution[i] = v as u32;
+            }
+        }
+        Ok(())
+    }
+
+    fn pixel_filter(&mut self, d: &Directive) -> Result<()> {
+        let kind = match &d.args[..] {
+            [Value::Str(s)] => s.clone(),
+            _ => return Err(d.err("expected the filter type")),
+        };
+        self.filter = Some(match kind.as_str() {
+            "box" => {
+                check_known(d, &d.params, &[])?;
+                desc::FilterDesc::Box(desc::BoxFilterDesc {})
+            }
+            "gaussian" => {
+                check_known(d, &d.params, &[])?;
+                self.warn(
+                    d,
+                    "pbrt's Gaussian (σ ½ to radius 1.5, minus its value there) rendered as Mitsuba's (σ ½ to radius 2)",
+                );
+                desc::FilterDesc::Gaussian(desc::GaussianFilterDesc { stddev: None })
+            }
+            other => return Err(d.err(format!("unsupported filter {other:?} (box, gaussian)"))),
+        });
+        Ok(())
+    }
+
+    /// The finished description: the camera (with the film's size and the filter), the
+    /// materials, shapes and lights.
+    pub fn finish(mut self) -> Result<(SceneDesc, Vec<String>, Vec<String>)> {
+        let Some(mut camera) = self.camera.take() else {
+            return Err(Error::new(format!("{}: no Camera directive", self.file)));
+        };
+        let [w, h] = self.resolution;
+        // pbrt's fov spans the shorter image axis.
+        if let Some(fov) = camera.fov_y
+            && w < h
+        {
+            let t = (0.5 * fov.to_radians()).tan() * h as f64 / w as f64;
+            camera.fov_y = Some(2.0 * t.atan().to_degrees());
+        }
+        if let Some(desc::LensDesc::Orthographic(o)) = &mut camera.lens {
+            // The screen window is [−1, 1] on the shorter axis.
+            o.height = 2.0 * (h as f64 / w as f64).max(1.0);
+        }
+        camera.resolution = Fixed([w, h]);
+        camera.filter = Some(self.filter.take().unwrap_or_else(|| {
+            self.warnings.push(format!(
+                "{}: pbrt's default Gaussian filter rendered as Mitsuba's (σ ½ to radius 2)",
+                self.camera_at
+            ));
+            desc::FilterDesc::Gaussian(desc::GaussianFilterDesc { stddev: None })
+        }));
+        if !self.stack.is_empty() {
+            return Err(Error::new(format!("{}: an AttributeBegin is never ended", self.file)));
+        }
+        let desc = SceneDesc {
+            name: None,
+            camera,
+            materials: self.materials,
+            shapes: self.shapes,
+            user_paths: Vec::new(),
+            environment: self.environment,
+            lights: self.lights,
+        };
+        Ok((desc, self.labels, self.warnings))
+    }
+
+    /// The current material's name, the default diffuse (reflectance 0.5) if none was set.
+    fn current_material(&mut self) -> String {
+        if let Some(m) = &self.state.material {
+            return m.clone();
+        }
+        let id = "default-diffuse".to_string();
+        self.materials
+            .entry(id.clone())
+            .or_insert(MaterialDesc::Diffuse(desc::Diffuse {
+                reflectance: Color::Rgb(Fixed([0.5; 3])),
+            }));
+        id
+    }
+}
+
+mod content;
+
+use content::{bool_param, check_known, column_major, float_param, string_param};
+
+impl Translator<'_> {
+    /// The directory of the scene file (relative names in parameters start here).
+    fn dir(&self) -> &Path {
+        self.dir
+    }
+
+    /// A transform step for the current transform.
+    fn ctm_desc(&self) -> TransformDesc {
+        let m = self.state.ctm;
+        let row = |i: usize| Fixed(m.row(i).to_array());
+        TransformDesc(vec![desc::TransformStep {
+            matrix: Some(Fixed([row(0), row(1), row(2), row(3)])),
+            ..desc::TransformStep::default()
+        }])
+    }
+
+    /// Whether the current transform mirrors (pbrt's `SwapsHandedness`).
+    fn swaps_handedness(&self) -> bool {
+        DMat3::from_mat4(self.state.ctm).determinant() < 0.0
+    }
+
+    fn point(&self, p: DVec3) -> DVec3 {
+        (self.state.ctm * DVec4::new(p.x, p.y, p.z, 1.0)).truncate()
+    }
+}

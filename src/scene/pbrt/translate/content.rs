@@ -1,0 +1,626 @@
+//! Parameter lists and the scene's content: materials, textures, shapes and lights.
+
+use super::*;
+
+/// The 4 × 4 matrix pbrt writes as 16 numbers, column by column.
+pub(super) fn column_major(v: &[f64]) -> DMat4 {
+    DMat4::from_cols_slice(v)
+}
+
+fn find<'p>(params: &'p [Param], name: &str) -> Option<&'p Param> {
+    params.iter().find(|p| p.name == name)
+}
+
+/// Refuses a parameter the translation does not read (a misspelling, or a feature that would
+/// change the image), naming it.
+pub(super) fn check_known(d: &Directive, params: &[Param], known: &[&str]) -> Result<()> {
+    match params.iter().find(|p| !known.contains(&p.name.as_str())) {
+        Some(p) => Err(d.err(format!(
+            "parameter \"{} {}\" is not supported here (read: {})",
+            p.ty,
+            p.name,
+            if known.is_empty() {
+                "none".to_string()
+            } else {
+                known.join(", ")
+            }
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn numbers(d: &Directive, p: &Param) -> Result<Vec<f64>> {
+    p.values
+        .iter()
+        .map(|v| match v {
+            Value::Num(x) => Ok(*x),
+            Value::Str(_) => Err(d.err(format!("parameter \"{} {}\": expected numbers", p.ty, p.name))),
+        })
+        .collect()
+}
+
+pub(super) fn float_param(d: &Directive, params: &[Param], name: &str) -> Result<Option<f64>> {
+    let Some(p) = find(params, name) else { return Ok(None) };
+    match (p.ty.as_str(), &numbers(d, p)?[..]) {
+        ("float" | "integer", [x]) => Ok(Some(*x)),
+        _ => Err(d.err(format!("parameter \"{} {name}\": expected one float", p.ty))),
+    }
+}
+
+pub(super) fn string_param(d: &Directive, params: &[Param], name: &str) -> Result<Option<String>> {
+    let Some(p) = find(params, name) else { return Ok(None) };
+    match (p.ty.as_str(), &p.values[..]) {
+        ("string" | "texture", [Value::Str(s)]) => Ok(Some(s.clone())),
+        _ => Err(d.err(format!("parameter \"{} {name}\": expected one string", p.ty))),
+    }
+}
+
+pub(super) fn bool_param(d: &Directive, params: &[Param], name: &str) -> Result<Option<bool>> {
+    let Some(p) = find(params, name) else { return Ok(None) };
+    match (p.ty.as_str(), &p.values[..]) {
+        ("bool", [Value::Str(s)]) if s == "true" || s == "false" => Ok(Some(s == "true")),
+        _ => Err(d.err(format!("parameter \"{} {name}\": expected true or false", p.ty))),
+    }
+}
+
+/// Triples of a `point3`/`normal3`/`vector3` array.
+fn triples(d: &Directive, params: &[Param], name: &str) -> Result<Option<Vec<Triple>>> {
+    let Some(p) = find(params, name) else { return Ok(None) };
+    let v = numbers(d, p)?;
+    if !matches!(
+        p.ty.as_str(),
+        "point3" | "point" | "normal3" | "normal" | "vector3" | "vector"
+    ) || v.len() % 3 != 0
+    {
+        return Err(d.err(format!("parameter \"{} {name}\": expected triples of numbers", p.ty)));
+    }
+    Ok(Some(v.chunks(3).map(|c| Fixed([c[0], c[1], c[2]])).collect()))
+}
+
+impl Translator<'_> {
+    /// A colour parameter: `rgb`, `spectrum` (wavelength–value pairs), or a `texture` name
+    /// (when `textures` allows); reflectances (`reflectance = true`) as Mitsuba converts them.
+    fn colour(&self, d: &Directive, params: &[Param], name: &str, reflectance: bool) -> Result<Option<Color>> {
+        let Some(p) = find(params, name) else { return Ok(None) };
+        match p.ty.as_str() {
+            "rgb" => match &numbers(d, p)?[..] {
+                [r, g, b] => Ok(Some(Color::Rgb(Fixed([*r, *g, *b])))),
+                _ => Err(d.err(format!("parameter \"rgb {name}\": expected 3 numbers"))),
+            },
+            "float" => Ok(float_param(d, params, name)?.map(|x| Color::Rgb(Fixed([x; 3])))),
+            "spectrum" => {
+                let v = numbers(d, p).map_err(|_| {
+                    d.err(format!(
+                        "parameter \"spectrum {name}\": named spectra are read for conductors only; give wavelength–value pairs or rgb"
+                    ))
+                })?;
+                if v.len() < 4 || v.len() % 2 != 0 {
+                    return Err(d.err(format!(
+                        "parameter \"spectrum {name}\": expected wavelength–value pairs"
+                    )));
+                }
+                let pairs: Vec<(f64, f64)> = v.chunks(2).map(|c| (c[0], c[1])).collect();
+                let (rgb, _) = crate::spectrum::list_to_srgb(&pairs, reflectance);
+                Ok(Some(Color::Rgb(Fixed(rgb.to_array()))))
+            }
+            "texture" => {
+                let t = string_param(d, params, name)?.unwrap_or_default();
+                let tex = self
+                    .textures
+                    .get(&t)
+                    .ok_or_else(|| d.err(format!("parameter \"texture {name}\": no texture named {t:?}")))?;
+                Ok(Some(Color::Texture(Box::new(tex.clone()))))
+            }
+            other => Err(d.err(format!(
+                "parameter \"{other} {name}\": expected rgb, spectrum or texture"
+            ))),
+        }
+    }
+
+    /// A light's colour `L`/`I`: `rgb`, a `spectrum` list, or `blackbody` at luminance 1.
+    pub(super) fn light_colour(&self, d: &Directive, name: &str) -> Result<Option<[f64; 3]>> {
+        let Some(p) = find(&d.params, name) else {
+            return Ok(None);
+        };
+        if p.ty == "blackbody" {
+            let [t] = numbers(d, p)?[..] else {
+                return Err(d.err(format!("parameter \"blackbody {name}\": expected one temperature")));
+            };
+            let rgb = crate::spectrum::blackbody_to_srgb(t);
+            let y = crate::color::luminance(rgb.as_vec3()) as f64;
+            return Ok(Some((rgb / y).to_array()));
+        }
+        match self.colour(d, &d.params, name, false)? {
+            Some(Color::Rgb(c)) => Ok(Some(c.0)),
+            Some(Color::Texture(_)) => Err(d.err(format!("parameter {name}: a light's colour cannot be a texture"))),
+            None => Ok(None),
+        }
+    }
+
+    /// One material of pbrt-v4 as ours (module doc for the mappings).
+    pub(super) fn material(&self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
+        let f = |x: f64| x;
+        Ok(match kind {
+            "diffuse" => {
+                check_known(d, params, &["reflectance"])?;
+                MaterialDesc::Diffuse(desc::Diffuse {
+                    reflectance: self
+                        .colour(d, params, "reflectance", true)?
+                        .unwrap_or(Color::Rgb(Fixed([0.5; 3]))),
+                })
+            }
+            "diffusetransmission" => {
+                check_known(d, params, &["reflectance", "transmittance", "scale"])?;
+                let s = float_param(d, params, "scale")?.unwrap_or(1.0);
+                let rgb = |name: &str| -> Result<Triple> {
+                    match self.colour(d, params, name, true)? {
+                        None => Ok(Fixed([0.25 * s; 3])),
+                        Some(Color::Rgb(c)) => Ok(Fixed(c.0.map(|x| f(x) * s))),
+                        Some(Color::Texture(_)) => Err(d.err(format!("{name}: a texture is not read here"))),
+                    }
+                };
+                MaterialDesc::DiffuseTransmission(desc::DiffuseTransmission {
+                    reflectance: rgb("reflectance")?,
+                    transmittance: rgb("transmittance")?,
+                })
+            }
+            "conductor" => {
+                check_known(
+                    d,
+                    params,
+                    &["eta", "k", "roughness", "uroughness", "vroughness", "remaproughness"],
+                )?;
+                let named = |name: &str, default: &str| -> Result<String> {
+                    let Some(p) = find(params, name) else {
+                        return Ok(default.to_string());
+                    };
+                    match &p.values[..] {
+                        [Value::Str(s)] if p.ty == "spectrum" => Ok(s.clone()),
+                        _ => Err(d.err(format!(
+                            "parameter \"{} {name}\": expected a named spectrum (metal-Au-{name}, …)",
+                            p.ty
+                        ))),
+                    }
+                };
+                let (eta, k) = (named("eta", "metal-Cu-eta")?, named("k", "metal-Cu-k")?);
+                let metal = |s: &str, suffix: &str| {
+                    s.strip_prefix("metal-")
+                        .and_then(|m| m.strip_suffix(suffix))
+                        .map(str::to_string)
+                };
+                let (Some(a), Some(b)) = (metal(&eta, "-eta"), metal(&k, "-k")) else {
+                    return Err(d.err(format!(
+                        "eta {eta:?} and k {k:?}: expected pbrt's metal-X-eta and metal-X-k"
+                    )));
+                };
+                if a != b || crate::bsdf::ConductorIor::named(&a).is_none() {
+                    return Err(d.err(format!(
+                        "eta {eta:?} and k {k:?}: expected one metal of {}",
+                        crate::bsdf::named_conductor_list()
+                    )));
+                }
+                let (au, av) = self.roughness(d, params)?;
+                if au.max(av) < 1e-3 {
+                    MaterialDesc::Conductor(desc::Conductor {
+                        material: Some(a),
+                        eta: None,
+                        k: None,
+                        specular_reflectance: None,
+                    })
+                } else {
+                    MaterialDesc::RoughConductor(desc::RoughConductor {
+                        material: Some(a),
+                        eta: None,
+                        k: None,
+                        specular_reflectance: None,
+                        distribution: Some("ggx".into()),
+                        alpha: None,
+                        alpha_u: Some(desc::ScalarDesc::Value(au)),
+                        alpha_v: Some(desc::ScalarDesc::Value(av)),
+                        sample_visible: Some(true),
+                    })
+                }
+            }
+            "dielectric" | "thindielectric" => {
+                check_known(
+                    d,
+                    params,
+                    &["eta", "roughness", "uroughness", "vroughness", "remaproughness"],
+                )?;
+                let eta = match find(params, "eta") {
+                    None => 1.5,
+                    Some(p) if p.ty == "float" => float_param(d, params, "eta")?.unwrap_or(1.5),
+                    Some(p) => return Err(d.err(format!("parameter \"{} eta\": expected a float", p.ty))),
+                };
+                let (au, av) = self.roughness(d, params)?;
+                if kind == "thindielectric" {
+                    MaterialDesc::ThinDielectric(desc::ThinDielectric {
+                        ior: eta,
+                        reflectance: Fixed([1.0; 3]),
+                        transmittance: Fixed([1.0; 3]),
+                    })
+                } else if au.max(av) < 1e-3 {
+                    MaterialDesc::Dielectric(desc::Dielectric { ior: eta })
+                } else {
+                    MaterialDesc::RoughDielectric(desc::RoughDielectric {
+                        ior: eta,
+                        specular_reflectance: None,
+                        specular_transmittance: None,
+                        distribution: Some("ggx".into()),
+                        alpha: None,
+                        alpha_u: Some(desc::ScalarDesc::Value(au)),
+                        alpha_v: Some(desc::ScalarDesc::Value(av)),
+                        sample_visible: Some(true),
+                    })
+                }
+            }
+            "mix" => {
+                check_known(d, params, &["materials", "amount"])?;
+                let Some(p) = find(params, "materials") else {
+                    return Err(d.err("expected \"string materials\" [\"a\" \"b\"]"));
+                };
+                let [Value::Str(a), Value::Str(b)] = &p.values[..] else {
+                    return Err(d.err("parameter materials: expected two material names"));
+                };
+                let named = |n: &str| {
+                    self.materials
+                        .get(&format!("named:{n}"))
+                        .cloned()
+                        .ok_or_else(|| d.err(format!("materials: no material named {n:?}")))
+                };
+                MaterialDesc::Blend(desc::Blend {
+                    weight: Some(desc::ScalarDesc::Value(
+                        float_param(d, params, "amount")?.unwrap_or(0.5),
+                    )),
+                    bsdfs: vec![named(a)?, named(b)?],
+                })
+            }
+            other => {
+                return Err(d.err(format!(
+                    "unsupported material {other:?} (diffuse, conductor, dielectric, thindielectric, \
+                     diffusetransmission, mix)"
+                )));
+            }
+        })
+    }
+
+    /// (α_u, α_v) from `roughness` or `uroughness`/`vroughness` (default 0), remapped by
+    /// `remaproughness` (default true): α = √roughness.
+    fn roughness(&self, d: &Directive, params: &[Param]) -> Result<(f64, f64)> {
+        let r = float_param(d, params, "roughness")?.unwrap_or(0.0);
+        let u = float_param(d, params, "uroughness")?.unwrap_or(r);
+        let v = float_param(d, params, "vroughness")?.unwrap_or(r);
+        if u < 0.0 || v < 0.0 {
+            return Err(d.err("roughness: expected numbers ≥ 0"));
+        }
+        Ok(if bool_param(d, params, "remaproughness")?.unwrap_or(true) {
+            (u.sqrt(), v.sqrt())
+        } else {
+            (u, v)
+        })
+    }
+
+    /// `Texture "name" "spectrum"|"float" "checkerboard"|"imagemap" …`.
+    pub(super) fn texture(&mut self, d: &Directive) -> Result<()> {
+        let [Value::Str(name), Value::Str(_ty), Value::Str(class)] = &d.args[..] else {
+            return Err(d.err("expected a name, a type (spectrum, float) and a class"));
+        };
+        let scale = |key: &str| float_param(d, &d.params, key).map(|v| v.unwrap_or(1.0));
+        let to_uv = desc::UvTransformDesc {
+            scale: Some(Fixed([scale("uscale")?, scale("vscale")?])),
+            offset: Some(Fixed([
+                float_param(d, &d.params, "udelta")?.unwrap_or(0.0),
+                float_param(d, &d.params, "vdelta")?.unwrap_or(0.0),
+            ])),
+            matrix: None,
+        };
+        let t = match class.as_str() {
+            "checkerboard" => {
+                check_known(
+                    d,
+                    &d.params,
+                    &["tex1", "tex2", "uscale", "vscale", "udelta", "vdelta", "dimension"],
+                )?;
+                if float_param(d, &d.params, "dimension")?.is_some_and(|x| x != 2.0) {
+                    return Err(d.err("only the 2D checkerboard is read"));
+                }
+                let rgb = |key: &str, default: f64| -> Result<Triple> {
+                    match self.colour(d, &d.params, key, true)? {
+                        None => Ok(Fixed([default; 3])),
+                        Some(Color::Rgb(c)) => Ok(c),
+                        Some(Color::Texture(_)) => Err(d.err(format!("{key}: a nested texture is not read"))),
+                    }
+                };
+                // pbrt's checkerboard has tex1 where ⌊u⌋ + ⌊v⌋ is even, in cells of 1; ours
+                // has color0 where both fractional parts of u′, v′ lie on one side of ½, in
+                // cells of ½: halve the scale.
+                TextureDesc::Checkerboard(desc::CheckerboardDesc {
+                    color0: Some(rgb("tex1", 1.0)?),
+                    color1: Some(rgb("tex2", 0.0)?),
+                    to_uv: Some(desc::UvTransformDesc {
+                        scale: to_uv.scale.map(|s| Fixed(s.0.map(|x| 0.5 * x))),
+                        offset: to_uv.offset.map(|o| Fixed(o.0.map(|x| 0.5 * x))),
+                        matrix: None,
+                    }),
+                })
+            }
+            "imagemap" => {
+                check_known(
+                    d,
+                    &d.params,
+                    &[
+                        "filename", "uscale", "vscale", "udelta", "vdelta", "filter", "wrap", "encoding",
+                    ],
+                )?;
+                let file =
+                    string_param(d, &d.params, "filename")?.ok_or_else(|| d.err("expected \"string filename\""))?;
+                let raw = match string_param(d, &d.params, "encoding")?.as_deref() {
+                    None | Some("sRGB") => None,
+                    Some("linear") => Some(true),
+                    Some(e) => return Err(d.err(format!("encoding {e:?}: expected sRGB or linear"))),
+                };
+                let wrap = match string_param(d, &d.params, "wrap")?.as_deref() {
+                    None | Some("repeat") => None,
+                    Some("clamp") => Some("clamp".to_string()),
+                    Some(w) => return Err(d.err(format!("wrap {w:?}: expected repeat or clamp"))),
+                };
+                let filter = match string_param(d, &d.params, "filter")?.as_deref() {
+                    None | Some("bilinear") => None,
+                    Some("point") => Some("nearest".to_string()),
+                    Some(x) => return Err(d.err(format!("filter {x:?}: expected bilinear or point"))),
+                };
+                // pbrt's image (u, v) puts v = 0 at the bottom row; ours at the top: flip v.
+                TextureDesc::Bitmap(desc::BitmapDesc {
+                    file: self.dir().join(&file).display().to_string(),
+                    filter,
+                    wrap,
+                    raw,
+                    to_uv: Some(desc::UvTransformDesc {
+                        scale: None,
+                        offset: None,
+                        matrix: Some(Fixed([
+                            Fixed([
+                                scale("uscale")?,
+                                0.0,
+                                float_param(d, &d.params, "udelta")?.unwrap_or(0.0),
+                            ]),
+                            Fixed([
+                                0.0,
+                                -scale("vscale")?,
+                                1.0 - float_param(d, &d.params, "vdelta")?.unwrap_or(0.0),
+                            ]),
+                        ])),
+                    }),
+                })
+            }
+            other => return Err(d.err(format!("unsupported texture {other:?} (checkerboard, imagemap)"))),
+        };
+        self.textures.insert(name.clone(), t);
+        Ok(())
+    }
+
+    pub(super) fn shape(&mut self, d: &Directive) -> Result<()> {
+        let kind = match &d.args[..] {
+            [Value::Str(s)] => s.clone(),
+            _ => return Err(d.err("expected the shape type")),
+        };
+        let material = self.current_material();
+        let emission = self.state.area_light.clone();
+        let transform = Some(self.ctm_desc());
+        let ro = self.state.reverse_orientation;
+        let params = &d.params;
+        let shape = match kind.as_str() {
+            "trianglemesh" => {
+                check_known(d, params, &["P", "indices", "N", "uv"])?;
+                let positions = triples(d, params, "P")?.ok_or_else(|| d.err("expected \"point3 P\""))?;
+                let mut indices: Option<Vec<i64>> = match find(params, "indices") {
+                    None => None,
+                    Some(p) => Some(numbers(d, p)?.iter().map(|&x| x as i64).collect()),
+                };
+                let normals = triples(d, params, "N")?;
+                if normals.is_none() && (ro ^ self.swaps_handedness()) {
+                    // Turned around by winding the other way.
+                    let mut i = indices.clone().unwrap_or_else(|| (0..positions.len() as i64).collect());
+                    for t in i.chunks_mut(3) {
+                        if t.len() == 3 {
+                            t.swap(1, 2);
+                        }
+                    }
+                    indices = Some(i);
+                }
+                let uv = match find(params, "uv") {
+                    None => None,
+                    Some(p) => {
+                        let v = numbers(d, p)?;
+                        if v.len() % 2 != 0 {
+                            return Err(d.err("parameter uv: expected pairs of numbers"));
+                        }
+                        Some(v.chunks(2).map(|c| Fixed([c[0], c[1]])).collect())
+                    }
+                };
+                ShapeDesc::Triangles(desc::Triangles {
+                    material,
+                    positions,
+                    indices,
+                    normals,
+                    uv,
+                    transform,
+                    emission,
+                })
+            }
+            "plymesh" => {
+                check_known(d, params, &["filename"])?;
+                if ro ^ self.swaps_handedness() {
+                    return Err(d.err(
+                        "a turned-around PLY mesh (ReverseOrientation or a mirroring transform) is not read yet",
+                    ));
+                }
+                let file = string_param(d, params, "filename")?.ok_or_else(|| d.err("expected \"string filename\""))?;
+                if file.ends_with(".gz") {
+                    return Err(d.err(format!(
+                        "{file}: gzip-compressed PLY files are not read; decompress it first"
+                    )));
+                }
+                ShapeDesc::Mesh(desc::Mesh {
+                    material,
+                    file: self.dir().join(&file).display().to_string(),
+                    face_normals: false,
+                    smooth_normals: false,
+                    shape_index: None,
+                    transform,
+                    emission,
+                })
+            }
+            "sphere" | "disk" | "cylinder" if self.swaps_handedness() => {
+                return Err(d.err("a sphere, disk or cylinder under a mirroring transform is not read"));
+            }
+            "sphere" => {
+                check_known(d, params, &["radius", "zmin", "zmax", "phimax"])?;
+                self.whole(d, &["zmin", "zmax", "phimax"])?;
+                if ro {
+                    return Err(d.err("a turned-around sphere (ReverseOrientation) is not read"));
+                }
+                ShapeDesc::Sphere(desc::Sphere {
+                    material,
+                    center: Fixed(self.point(DVec3::ZERO).to_array()),
+                    radius: float_param(d, params, "radius")?.unwrap_or(1.0) * self.uniform_scale(d)?,
+                    transform: None,
+                    emission,
+                })
+            }
+            "disk" => {
+                check_known(d, params, &["radius", "height", "innerradius", "phimax"])?;
+                self.whole(d, &["innerradius", "phimax"])?;
+                let r = float_param(d, params, "radius")?.unwrap_or(1.0);
+                let h = float_param(d, params, "height")?.unwrap_or(0.0);
+                let m = self.state.ctm
+                    * DMat4::from_translation(DVec3::new(0.0, 0.0, h))
+                    * DMat4::from_scale(DVec3::new(r, r, 1.0));
+                ShapeDesc::Disk(desc::Disk {
+                    material,
+                    flip_normals: ro,
+                    transform: Some(matrix_desc(m)),
+                    emission,
+                })
+            }
+            "cylinder" => {
+                check_known(d, params, &["radius", "zmin", "zmax", "phimax"])?;
+                self.whole(d, &["phimax"])?;
+                ShapeDesc::Cylinder(desc::Cylinder {
+                    material,
+                    p0: Some(Fixed([0.0, 0.0, float_param(d, params, "zmin")?.unwrap_or(-1.0)])),
+                    p1: Some(Fixed([0.0, 0.0, float_param(d, params, "zmax")?.unwrap_or(1.0)])),
+                    radius: Some(float_param(d, params, "radius")?.unwrap_or(1.0)),
+                    flip_normals: ro,
+                    transform,
+                    emission,
+                })
+            }
+            other => {
+                return Err(d.err(format!(
+                    "unsupported shape {other:?} (trianglemesh, plymesh, sphere, disk, cylinder)"
+                )));
+            }
+        };
+        self.shapes.push(shape);
+        self.labels.push(format!("{}, Shape \"{kind}\"", d.at));
+        Ok(())
+    }
+
+    /// Refuses a partial quadric: any of `keys` away from its whole-shape default.
+    fn whole(&self, d: &Directive, keys: &[&str]) -> Result<()> {
+        for &k in keys {
+            if let Some(v) = float_param(d, &d.params, k)? {
+                let whole = match k {
+                    "phimax" => v >= 360.0,
+                    "innerradius" => v == 0.0,
+                    "zmin" => v <= -float_param(d, &d.params, "radius")?.unwrap_or(1.0),
+                    _ => v >= float_param(d, &d.params, "radius")?.unwrap_or(1.0),
+                };
+                if !whole {
+                    return Err(d.err(format!("{k} = {v}: partial spheres, disks and cylinders are not read")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The scale of a transform that keeps spheres spheres.
+    fn uniform_scale(&self, d: &Directive) -> Result<f64> {
+        let m = DMat3::from_mat4(self.state.ctm);
+        let s = [m.x_axis.length(), m.y_axis.length(), m.z_axis.length()];
+        let orthogonal = m.x_axis.dot(m.y_axis).abs() < 1e-6 * s[0] * s[1]
+            && m.x_axis.dot(m.z_axis).abs() < 1e-6 * s[0] * s[2]
+            && m.y_axis.dot(m.z_axis).abs() < 1e-6 * s[1] * s[2];
+        if orthogonal && (s[0] - s[1]).abs() < 1e-6 * s[0] && (s[0] - s[2]).abs() < 1e-6 * s[0] {
+            Ok(s[0])
+        } else {
+            Err(d.err("a sphere's transform must scale uniformly"))
+        }
+    }
+
+    pub(super) fn light(&mut self, d: &Directive) -> Result<()> {
+        let kind = match &d.args[..] {
+            [Value::Str(s)] => s.clone(),
+            _ => return Err(d.err("expected the light type")),
+        };
+        let scale = float_param(d, &d.params, "scale")?.unwrap_or(1.0);
+        let point3 = |name: &str, default: DVec3| -> Result<DVec3> {
+            Ok(match triples(d, &d.params, name)? {
+                None => default,
+                Some(v) if v.len() == 1 => DVec3::from_array(v[0].0),
+                Some(_) => return Err(d.err(format!("{name}: expected one point"))),
+            })
+        };
+        match kind.as_str() {
+            "point" => {
+                check_known(d, &d.params, &["I", "scale", "from"])?;
+                let i = self.light_colour(d, "I")?.unwrap_or([1.0; 3]);
+                self.lights.push(desc::LightDesc::Point(desc::PointLightDesc {
+                    position: Fixed(self.point(point3("from", DVec3::ZERO)?).to_array()),
+                    intensity: Fixed(i.map(|c| c * scale)),
+                }));
+            }
+            "distant" => {
+                check_known(d, &d.params, &["L", "scale", "from", "to"])?;
+                let l = self.light_colour(d, "L")?.unwrap_or([1.0; 3]);
+                let (from, to) = (point3("from", DVec3::ZERO)?, point3("to", DVec3::Z)?);
+                let dir = (self.point(to) - self.point(from)).normalize_or_zero();
+                if dir == DVec3::ZERO {
+                    return Err(d.err("from and to coincide"));
+                }
+                self.lights
+                    .push(desc::LightDesc::Directional(desc::DirectionalLightDesc {
+                        direction: Fixed(dir.to_array()),
+                        irradiance: Fixed(l.map(|c| c * scale)),
+                    }));
+            }
+            "infinite" => {
+                check_known(d, &d.params, &["L", "scale"])?;
+                if self.environment.is_some() {
+                    return Err(d.err("a second infinite light"));
+                }
+                let l = self.light_colour(d, "L")?.unwrap_or([1.0; 3]);
+                self.environment = Some(desc::EnvironmentDesc::Constant(desc::ConstantEnvironment {
+                    radiance: Fixed(l.map(|c| c * scale)),
+                }));
+            }
+            other => {
+                return Err(d.err(format!(
+                    "unsupported light {other:?} (point, distant, infinite with L; pbrt's spot falloff \
+                     and equal-area environment maps are not read yet)"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A 4 × 4 matrix as one `matrix` transform step.
+fn matrix_desc(m: DMat4) -> TransformDesc {
+    let row = |i: usize| Fixed(m.row(i).to_array());
+    TransformDesc(vec![desc::TransformStep {
+        matrix: Some(Fixed([row(0), row(1), row(2), row(3)])),
+        ..desc::TransformStep::default()
+    }])
+}
