@@ -222,6 +222,41 @@ fn materials_map_to_ours() {
         other => panic!("{other:?}"),
     }
     assert!(matches!(last(&scene("Material \"conductor\"")), Bsdf::Conductor(_)));
+    // η and k as RGB, and pbrt-v4's reflectance mode: η = 1, k = 2√r / √(1 − r), whose
+    // normal-incidence Fresnel reflectance is r.
+    match last(&scene(
+        "Material \"conductor\" \"rgb eta\" [0.2 0.4 1.4] \"rgb k\" [3.9 2.4 1.6]",
+    )) {
+        Bsdf::Conductor(c) => assert!((c.ior.eta - glam::Vec3::new(0.2, 0.4, 1.4)).length() < 1e-6),
+        other => panic!("{other:?}"),
+    }
+    match last(&scene("Material \"conductor\" \"rgb reflectance\" [0.9 0.5 0.1]")) {
+        Bsdf::Conductor(c) => {
+            let f = photon_bench::bsdf::fresnel_conductor(1.0, c.ior.eta, c.ior.k);
+            assert!((f - glam::Vec3::new(0.9, 0.5, 0.1)).length() < 1e-4, "{f}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // A spectrum file of pairs (pbrt's .spd) for k beside a named η.
+    std::fs::write(
+        dir.path().join("k.spd"),
+        "# k of a grey metal\n400 2.0\n500 2.0\n600 2.0\n700 2.0\n",
+    )
+    .unwrap();
+    match last(&scene(
+        "Material \"conductor\" \"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"k.spd\"",
+    )) {
+        Bsdf::Conductor(c) => {
+            // Converted as Mitsuba converts an unbounded spectrum (so the same spectrum in a
+            // Mitsuba file gives the same k; a flat spectrum is not grey in sRGB).
+            let pairs = [(400.0, 2.0), (500.0, 2.0), (600.0, 2.0), (700.0, 2.0)];
+            let k = photon_bench::spectrum::list_to_srgb(&pairs, false).0.as_vec3();
+            assert!((c.ior.k - k).length() < 1e-5, "{} vs {k}", c.ior.k);
+            let au = photon_bench::bsdf::ConductorIor::named("Au").unwrap();
+            assert!((c.ior.eta - au.eta).length() < 1e-6);
+        }
+        other => panic!("{other:?}"),
+    }
     assert!(
         matches!(last(&scene("Material \"dielectric\" \"float eta\" 1.33")), Bsdf::Dielectric(d) if (d.ior - 1.33).abs() < 1e-6)
     );

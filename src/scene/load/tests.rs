@@ -265,10 +265,10 @@ fn the_documented_example_loads() {
     assert_eq!(stats.spheres, 1);
     // Two quads (the second with `subdivide = 4`), a box with `subdivide = 2`, a disk (13 rings
     // and a fan of 512 segments), a cylinder twice as long as its radius (⌈2 · 512 / (16 · 2π)⌉
-    // = 11 rings), a triangle.
+    // = 11 rings), a triangle from the OBJ file and one written in the scene.
     assert_eq!(
         stats.triangles,
-        2 + 2 * 4 * 4 + 12 * 2 * 2 + 512 * (2 * 13 + 1) + 2 * 512 * 11 + 1
+        2 + 2 * 4 * 4 + 12 * 2 * 2 + 512 * (2 * 13 + 1) + 2 * 512 * 11 + 1 + 1
     );
     assert_eq!(scene.user_paths.len(), 1);
     assert!(scene.environment.is_some());

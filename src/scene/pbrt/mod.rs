@@ -54,6 +54,7 @@ pub fn import(file: &str, dir: &Path, text: &str) -> Result<Imported> {
         t.directive(d)?;
     }
     let (desc, shape_labels, warnings) = t.finish()?;
+    included.append(&mut t.files_read);
     Ok(Imported {
         desc,
         shape_labels,

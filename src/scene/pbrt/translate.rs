@@ -56,6 +56,8 @@ pub struct Translator<'a> {
     lights: Vec<desc::LightDesc>,
     environment: Option<desc::EnvironmentDesc>,
     warnings: Vec<String>,
+    /// Files read for parameters (spectra), with their bytes, for the scene's hash.
+    pub files_read: Vec<(std::path::PathBuf, Vec<u8>)>,
 }
 
 impl<'a> Translator<'a> {
@@ -84,6 +86,7 @@ impl<'a> Translator<'a> {
             lights: Vec::new(),
             environment: None,
             warnings: Vec::new(),
+            files_read: Vec::new(),
         }
     }
 
@@ -346,7 +349,7 @@ impl<'a> Translator<'a> {
 
     /// The finished description: the camera (with the film's size and the filter), the
     /// materials, shapes and lights.
-    pub fn finish(mut self) -> Result<(SceneDesc, Vec<String>, Vec<String>)> {
+    pub fn finish(&mut self) -> Result<(SceneDesc, Vec<String>, Vec<String>)> {
         let Some(mut camera) = self.camera.take() else {
             return Err(Error::new(format!("{}: no Camera directive", self.file)));
         };
@@ -376,13 +379,17 @@ impl<'a> Translator<'a> {
         let desc = SceneDesc {
             name: None,
             camera,
-            materials: self.materials,
-            shapes: self.shapes,
+            materials: std::mem::take(&mut self.materials),
+            shapes: std::mem::take(&mut self.shapes),
             user_paths: Vec::new(),
-            environment: self.environment,
-            lights: self.lights,
+            environment: self.environment.take(),
+            lights: std::mem::take(&mut self.lights),
         };
-        Ok((desc, self.labels, self.warnings))
+        Ok((
+            desc,
+            std::mem::take(&mut self.labels),
+            std::mem::take(&mut self.warnings),
+        ))
     }
 
     /// The current material's name, the default diffuse (reflectance 0.5) if none was set.

@@ -138,7 +138,7 @@ impl Translator<'_> {
     }
 
     /// One material of pbrt-v4 as ours (module doc for the mappings).
-    pub(super) fn material(&self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
+    pub(super) fn material(&mut self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
         let f = |x: f64| x;
         Ok(match kind {
             "diffuse" => {
@@ -168,50 +168,30 @@ impl Translator<'_> {
                 check_known(
                     d,
                     params,
-                    &["eta", "k", "roughness", "uroughness", "vroughness", "remaproughness"],
+                    &[
+                        "eta",
+                        "k",
+                        "reflectance",
+                        "roughness",
+                        "uroughness",
+                        "vroughness",
+                        "remaproughness",
+                    ],
                 )?;
-                let named = |name: &str, default: &str| -> Result<String> {
-                    let Some(p) = find(params, name) else {
-                        return Ok(default.to_string());
-                    };
-                    match &p.values[..] {
-                        [Value::Str(s)] if p.ty == "spectrum" => Ok(s.clone()),
-                        _ => Err(d.err(format!(
-                            "parameter \"{} {name}\": expected a named spectrum (metal-Au-{name}, …)",
-                            p.ty
-                        ))),
-                    }
-                };
-                let (eta, k) = (named("eta", "metal-Cu-eta")?, named("k", "metal-Cu-k")?);
-                let metal = |s: &str, suffix: &str| {
-                    s.strip_prefix("metal-")
-                        .and_then(|m| m.strip_suffix(suffix))
-                        .map(str::to_string)
-                };
-                let (Some(a), Some(b)) = (metal(&eta, "-eta"), metal(&k, "-k")) else {
-                    return Err(d.err(format!(
-                        "eta {eta:?} and k {k:?}: expected pbrt's metal-X-eta and metal-X-k"
-                    )));
-                };
-                if a != b || crate::bsdf::ConductorIor::named(&a).is_none() {
-                    return Err(d.err(format!(
-                        "eta {eta:?} and k {k:?}: expected one metal of {}",
-                        crate::bsdf::named_conductor_list()
-                    )));
-                }
+                let (material, eta, k) = self.conductor_ior(d, params)?;
                 let (au, av) = self.roughness(d, params)?;
                 if au.max(av) < 1e-3 {
                     MaterialDesc::Conductor(desc::Conductor {
-                        material: Some(a),
-                        eta: None,
-                        k: None,
+                        material,
+                        eta,
+                        k,
                         specular_reflectance: None,
                     })
                 } else {
                     MaterialDesc::RoughConductor(desc::RoughConductor {
-                        material: Some(a),
-                        eta: None,
-                        k: None,
+                        material,
+                        eta,
+                        k,
                         specular_reflectance: None,
                         distribution: Some("ggx".into()),
                         alpha: None,
@@ -282,6 +262,102 @@ impl Translator<'_> {
                 )));
             }
         })
+    }
+
+    /// A conductor's index: a named metal (`metal-X-eta` and `metal-X-k`, both the same X), η
+    /// and k as `rgb`, `spectrum` pairs or `.spd` files (converted as Mitsuba converts
+    /// unbounded spectra), or pbrt-v4's `reflectance` r (η = 1, k = 2√r / √(1 − r), r ≤
+    /// 0.9999: the index whose normal-incidence Fresnel reflectance is r). Default: copper.
+    fn conductor_ior(
+        &mut self,
+        d: &Directive,
+        params: &[Param],
+    ) -> Result<(Option<String>, Option<Triple>, Option<Triple>)> {
+        if let Some(r) = self.colour(d, params, "reflectance", true)? {
+            if find(params, "eta").is_some() || find(params, "k").is_some() {
+                return Err(d.err("give reflectance or eta and k, not both"));
+            }
+            let Color::Rgb(r) = r else {
+                return Err(d.err("reflectance: a texture is not read for a conductor"));
+            };
+            let k = r.0.map(|r| {
+                let r = r.clamp(0.0, 0.9999);
+                2.0 * r.sqrt() / (1.0 - r).sqrt()
+            });
+            return Ok((None, Some(Fixed([1.0; 3])), Some(Fixed(k))));
+        }
+        let metal = |p: Option<&Param>, suffix: &str| -> Option<String> {
+            match p.map(|p| &p.values[..]) {
+                None => Some("Cu".into()),
+                Some([Value::Str(s)]) => s
+                    .strip_prefix("metal-")
+                    .and_then(|m| m.strip_suffix(suffix))
+                    .map(str::to_string),
+                _ => None,
+            }
+        };
+        let (pe, pk) = (find(params, "eta"), find(params, "k"));
+        if let (Some(a), Some(b)) = (metal(pe, "-eta"), metal(pk, "-k"))
+            && a == b
+        {
+            if crate::bsdf::ConductorIor::named(&a).is_none() {
+                return Err(d.err(format!(
+                    "metal {a:?}: expected one of {}",
+                    crate::bsdf::named_conductor_list()
+                )));
+            }
+            return Ok((Some(a), None, None));
+        }
+        let mut part = |p: Option<&Param>, suffix: &str| -> Result<Triple> {
+            let named = metal(p, suffix).and_then(|m| crate::bsdf::ConductorIor::named(&m));
+            match (named, p) {
+                (Some(ior), _) => {
+                    let v = if suffix == "-eta" { ior.eta } else { ior.k };
+                    Ok(Fixed(v.as_dvec3().to_array()))
+                }
+                (None, Some(p)) => self.unbounded(d, p),
+                (None, None) => unreachable!("an absent parameter is copper"),
+            }
+        };
+        Ok((None, Some(part(pe, "-eta")?), Some(part(pk, "-k")?)))
+    }
+
+    /// An unbounded spectrum (η, k) as RGB: `rgb`, `spectrum` pairs, or a `spectrum` file of
+    /// pairs (pbrt's `.spd`, relative to the scene; its bytes join the scene's hash).
+    fn unbounded(&mut self, d: &Directive, p: &Param) -> Result<Triple> {
+        let pairs: Vec<f64> = match (p.ty.as_str(), &p.values[..]) {
+            ("rgb", _) => {
+                let v = numbers(d, p)?;
+                let [r, g, b] = v[..] else {
+                    return Err(d.err(format!("parameter \"rgb {}\": expected 3 numbers", p.name)));
+                };
+                return Ok(Fixed([r, g, b]));
+            }
+            ("spectrum", [Value::Str(file)]) => {
+                let path = self.dir.join(file);
+                let bytes = crate::util::read_input(&path, "spectrum file", crate::util::MAX_TEXT_INPUT)
+                    .map_err(|e| d.err(format!("parameter \"spectrum {}\": {file}: {e} (named spectra other than metal-X-eta/-k are not known)", p.name)))?;
+                let text = String::from_utf8_lossy(&bytes).to_string();
+                self.files_read.push((path, bytes));
+                let mut v = Vec::new();
+                for line in text.lines() {
+                    for w in line.split('#').next().unwrap_or("").split_whitespace() {
+                        v.push(
+                            w.parse::<f64>()
+                                .map_err(|_| d.err(format!("{file}: {w:?} is not a number")))?,
+                        );
+                    }
+                }
+                v
+            }
+            ("spectrum", _) => numbers(d, p)?,
+            (ty, _) => return Err(d.err(format!("parameter \"{ty} {}\": expected rgb or spectrum", p.name))),
+        };
+        if pairs.len() < 4 || !pairs.len().is_multiple_of(2) || pairs.iter().any(|x| !x.is_finite()) {
+            return Err(d.err(format!("parameter {}: expected wavelength–value pairs", p.name)));
+        }
+        let points: Vec<(f64, f64)> = pairs.chunks(2).map(|c| (c[0], c[1])).collect();
+        Ok(Fixed(crate::spectrum::list_to_srgb(&points, false).0.to_array()))
     }
 
     /// (α_u, α_v) from `roughness` or `uroughness`/`vroughness` (default 0), remapped by
