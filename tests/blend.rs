@@ -5,9 +5,7 @@
 
 mod agreement;
 
-use agreement::{
-    assert_agrees, assert_refused, block_means, image_mean, judge_blocks, load_text as load, render_image,
-};
+use agreement::{assert_agrees, assert_refused, block_means, image_mean, judge_blocks, load_text as load};
 use photon_bench::scene::Scene;
 
 /// A sphere of `material` (a TOML inline table) on a dark floor under a constant sky and a small
@@ -140,28 +138,8 @@ fn every_strategy_renders_a_blend_with_a_delta_lobe_as_path() {
 fn blended_images_are_bit_identical_for_any_thread_count() {
     let scene = textured();
     for kind in ["path", "bdpt", "photon_map", "mlt"] {
-        let image = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| render_image(&scene, kind, "", 2, 3))
-        };
-        let bits = |img: photon_bench::film::Image| -> Vec<u32> {
-            img.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect()
-        };
-        assert_eq!(bits(image(1)), bits(image(3)), "{kind}");
+        agreement::assert_bit_identical_across_threads(&scene, kind, 3);
     }
-}
-
-fn xml(body: &str) -> String {
-    format!(
-        r#"<scene version="3.0.0">
-    <sensor type="perspective"><float name="fov" value="40"/>
-        <transform name="to_world"><lookat origin="0, 0, 9" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
-    <shape type="sphere"><point name="center" x="0" y="30" z="0"/><float name="radius" value="0.5"/>
-        <emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>
-    {body}
-</scene>"#
-    )
 }
 
 /// Mitsuba's `blendbsdf` is read (weight a number or a texture, each model with its own
@@ -178,7 +156,7 @@ fn mitsuba_blends_are_read_exported_and_checked() {
     let rect = |bsdf: &str| format!(r#"<shape type="rectangle">{bsdf}</shape>"#);
     let read = |body: &str| {
         let path = dir.path().join("b.xml");
-        std::fs::write(&path, xml(body)).unwrap();
+        std::fs::write(&path, agreement::mitsuba_scene(body)).unwrap();
         photon_bench::scene::load::load_scene_with_stats(&path)
     };
     for (bsdf, weight, one_sided) in [

@@ -276,29 +276,9 @@ fn photon_maps_read_the_light_a_mask_lets_through() {
 #[test]
 fn masked_images_are_bit_identical_for_any_thread_count() {
     let scene = room();
-    let bits = |img: &photon_bench::film::Image| -> Vec<u32> {
-        img.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect()
-    };
     for kind in strategy::kinds().into_iter().filter(|&k| k != "mps") {
-        let image = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| render_image(&scene, kind, "", 2, 5))
-        };
-        assert_eq!(bits(&image(1)), bits(&image(3)), "{kind}");
+        agreement::assert_bit_identical_across_threads(&scene, kind, 5);
     }
-}
-
-fn xml(body: &str) -> String {
-    format!(
-        r#"<scene version="3.0.0">
-    <sensor type="perspective"><float name="fov" value="40"/>
-        <transform name="to_world"><lookat origin="0, 0, 9" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
-    <shape type="sphere"><point name="center" x="0" y="30" z="0"/><float name="radius" value="0.5"/>
-        <emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>
-    {body}
-</scene>"#
-    )
 }
 
 /// Mitsuba's `mask` is read with its opacity (a number, a colour's luminance, a texture) and
@@ -335,7 +315,7 @@ fn mitsuba_masks_are_read_exported_and_checked() {
         ),
     ] {
         let path = dir.path().join("m.xml");
-        std::fs::write(&path, xml(&rect(&bsdf))).unwrap();
+        std::fs::write(&path, agreement::mitsuba_scene(&rect(&bsdf))).unwrap();
         let scene = photon_bench::scene::load::load_scene_with_stats(&path).unwrap().0;
         let m = scene
             .materials
@@ -361,7 +341,7 @@ fn mitsuba_masks_are_read_exported_and_checked() {
     // A texture's luminance.
     let checker = r#"<bsdf type="mask"><texture name="opacity" type="checkerboard"><rgb name="color0" value="1"/><rgb name="color1" value="0.25"/></texture><bsdf type="diffuse"/></bsdf>"#;
     let path = dir.path().join("t.xml");
-    std::fs::write(&path, xml(&rect(checker))).unwrap();
+    std::fs::write(&path, agreement::mitsuba_scene(&rect(checker))).unwrap();
     let scene = photon_bench::scene::load::load_scene_with_stats(&path).unwrap().0;
     let m = scene.materials.iter().find(|m| m.opacity.is_some()).unwrap();
     assert_eq!(m.opacity.as_ref().unwrap().range(), (0.25, 1.0));
@@ -381,7 +361,7 @@ fn mitsuba_masks_are_read_exported_and_checked() {
         (rect(r#"<bsdf type="mask"></bsdf>"#), &["exactly one nested <bsdf>"]),
     ] {
         let path = dir.path().join("bad.xml");
-        std::fs::write(&path, xml(&body)).unwrap();
+        std::fs::write(&path, agreement::mitsuba_scene(&body)).unwrap();
         let err = photon_bench::scene::load::load_scene_with_stats(&path).err().expect(&body).to_string();
         assert_refused(&err, expect);
     }

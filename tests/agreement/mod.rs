@@ -152,3 +152,30 @@ pub fn judge_blocks(
     }
     assert!(judged >= 6, "{kind}: only {judged} of {} blocks judged", blocks.len());
 }
+
+#[allow(dead_code)]
+/// Asserts that `kind` renders `scene` bit-identically on 1 and on 3 threads (2 spp, `seed`).
+pub fn assert_bit_identical_across_threads(scene: &Scene, kind: &str, seed: u64) {
+    let bits = |threads: usize| -> Vec<u32> {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let img = pool.install(|| render_image(scene, kind, "", 2, seed));
+        img.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect()
+    };
+    assert_eq!(bits(1), bits(3), "{kind}");
+}
+
+#[allow(dead_code)]
+/// A small Mitsuba 3 scene around `body`: an 8 × 8 camera looking down −z from z = 9 and a
+/// sphere light high above.
+pub fn mitsuba_scene(body: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+    <sensor type="perspective"><float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0, 0, 9" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+    <shape type="sphere"><point name="center" x="0" y="30" z="0"/><float name="radius" value="0.5"/>
+        <emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>
+    {body}
+</scene>"#
+    )
+}
