@@ -22,7 +22,7 @@ fn small(file: &str, from: &str, to: &str) -> Scene {
 
 fn pbrt_box() -> Scene {
     small(
-        "scenes/pbrt/cornell-box.pbrt",
+        "scenes/pbrt/cornell-box-pbrt.pbrt",
         "\"integer xresolution\" 256 \"integer yresolution\" 256",
         "\"integer xresolution\" 24 \"integer yresolution\" 24",
     )
@@ -81,7 +81,7 @@ fn a_pbrt_cornell_box_renders_as_the_toml_one() {
 /// for ray.
 #[test]
 fn pbrts_left_handed_camera_mirrors_the_image() {
-    let path = Path::new("scenes/pbrt/cornell-box.pbrt");
+    let path = Path::new("scenes/pbrt/cornell-box-pbrt.pbrt");
     let text = std::fs::read_to_string(path)
         .unwrap()
         .replace("Scale -1 1 1\n", "")
