@@ -360,3 +360,29 @@ fn inline_triangles_and_mirrored_cameras_in_toml_and_mitsuba() {
     let c = back.camera.generate_ray(raster);
     assert!((c.d - a.d).length() < 1e-5, "{} vs {}", c.d, a.d);
 }
+
+/// A `bilinearmesh` of flat patches is the two triangles pbrt's patch spans, with its front
+/// side: the floor written as one patch renders bit-identically to the floor written as two
+/// triangles; a curved patch is refused naming the line.
+#[test]
+fn flat_bilinear_patches_are_their_two_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    let light = "LightSource \"point\" \"rgb I\" [1 1 1] \"point3 from\" [0 2 0]";
+    let triangles = load(dir.path(), "t.pbrt", &lit_floor(light)).unwrap();
+    let patch = lit_floor(light).replace(
+        "  Shape \"trianglemesh\" \"point3 P\" [-1 -1 0  1 -1 0  1 1 0] \"integer indices\" [0 1 2]\n  \
+         Shape \"trianglemesh\" \"point3 P\" [-1 -1 0  1 1 0  -1 1 0]",
+        "  Shape \"bilinearmesh\" \"point3 P\" [-1 -1 0  1 -1 0  -1 1 0  1 1 0]",
+    );
+    assert!(patch.contains("bilinearmesh"));
+    let bilinear = load(dir.path(), "b.pbrt", &patch).unwrap();
+    assert_eq!(bilinear.primitives, triangles.primitives);
+    let bits = |s: &Scene| -> Vec<u32> {
+        let img = agreement::render_image(s, "path", "max_depth = 2", 4, 3);
+        img.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect()
+    };
+    assert_eq!(bits(&bilinear), bits(&triangles));
+    let curved = patch.replace("-1 1 0  1 1 0]", "-1 1 0  1 1 0.5]");
+    let err = load(dir.path(), "c.pbrt", &curved).err().unwrap().to_string();
+    assert_refused(&err, &["line 10", "bilinearmesh", "curved"]);
+}

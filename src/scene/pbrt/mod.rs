@@ -24,7 +24,8 @@
 //! - `Material`, `MakeNamedMaterial`, `NamedMaterial`: `diffuse`, `conductor`, `dielectric`,
 //!   `thindielectric`, `diffusetransmission`, `mix` ([`translate`] says how each maps).
 //! - `Texture` `float`/`spectrum` `checkerboard` (2D) and `imagemap`.
-//! - `Shape` `trianglemesh`, `plymesh`, `sphere`, `disk`, `cylinder` (whole ones).
+//! - `Shape` `trianglemesh`, `bilinearmesh` (flat patches), `plymesh`, `sphere`, `disk`,
+//!   `cylinder` (whole ones).
 //! - `AreaLightSource` `diffuse`; `LightSource` `point`, `distant`, `infinite` (constant `L`).
 
 mod syntax;

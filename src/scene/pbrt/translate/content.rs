@@ -524,6 +524,10 @@ impl Translator<'_> {
                     emission,
                 })
             }
+            "bilinearmesh" => {
+                check_known(d, params, &["P", "indices", "uv"])?;
+                self.bilinear_patches(d, params, material, transform, emission)?
+            }
             "plymesh" => {
                 check_known(d, params, &["filename"])?;
                 if ro ^ self.swaps_handedness() {
@@ -594,13 +598,94 @@ impl Translator<'_> {
             }
             other => {
                 return Err(d.err(format!(
-                    "unsupported shape {other:?} (trianglemesh, plymesh, sphere, disk, cylinder)"
+                    "unsupported shape {other:?} (trianglemesh, bilinearmesh of flat patches, plymesh, sphere, disk, cylinder)"
                 )));
             }
         };
         self.shapes.push(shape);
         self.labels.push(format!("{}, Shape \"{kind}\"", d.at));
         Ok(())
+    }
+
+    /// A `bilinearmesh` of flat patches as triangles: each patch (p00, p10, p01, p11) is two
+    /// triangles (p00, p10, p11) and (p00, p11, p01), which keep pbrt's front side
+    /// (p10 − p00) × (p01 − p00) and its (u, v) ((0, 0) … (1, 1) unless `uv` is given); a curved
+    /// patch (p11 off the plane of the other three) is refused, as a bilinear surface is not
+    /// rendered yet. Turned around as triangles are.
+    fn bilinear_patches(
+        &self,
+        d: &Directive,
+        params: &[Param],
+        material: String,
+        transform: Option<TransformDesc>,
+        emission: Option<desc::EmissionDesc>,
+    ) -> Result<ShapeDesc> {
+        let positions = triples(d, params, "P")?.ok_or_else(|| d.err("expected \"point3 P\""))?;
+        let corners: Vec<i64> = match find(params, "indices") {
+            Some(p) => numbers(d, p)?.iter().map(|&x| x as i64).collect(),
+            None if positions.len() == 4 => vec![0, 1, 2, 3],
+            None => return Err(d.err("expected \"integer indices\" for more than 4 positions")),
+        };
+        if corners.is_empty()
+            || !corners.len().is_multiple_of(4)
+            || corners.iter().any(|&i| i < 0 || i as usize >= positions.len())
+        {
+            return Err(d.err("indices: expected groups of 4 vertex indices"));
+        }
+        let p = |i: i64| DVec3::from_array(positions[i as usize].0);
+        let flip = self.state.reverse_orientation ^ self.swaps_handedness();
+        let mut indices = Vec::with_capacity(corners.len() / 4 * 6);
+        for (k, q) in corners.chunks(4).enumerate() {
+            let [p00, p10, p01, p11] = [p(q[0]), p(q[1]), p(q[2]), p(q[3])];
+            let n = (p10 - p00).cross(p01 - p00);
+            let size = (p10 - p00).length().max((p01 - p00).length()).max(1e-30);
+            if (p11 - p00).dot(n.normalize_or_zero()).abs() > 1e-5 * size {
+                return Err(d.err(format!("bilinearmesh patch {k} is curved (its fourth corner is off the plane of the other three); curved patches are not read yet")));
+            }
+            let (a, b) = if flip {
+                ([q[0], q[3], q[1]], [q[0], q[2], q[3]])
+            } else {
+                ([q[0], q[1], q[3]], [q[0], q[3], q[2]])
+            };
+            indices.extend(a);
+            indices.extend(b);
+        }
+        let uv = match find(params, "uv") {
+            Some(p) => {
+                let v = numbers(d, p)?;
+                if v.len() != 2 * positions.len() {
+                    return Err(d.err("parameter uv: expected one pair per position"));
+                }
+                Some(v.chunks(2).map(|c| Fixed([c[0], c[1]])).collect())
+            }
+            // pbrt's default (u, v) of a patch are its corners' (0, 0), (1, 0), (0, 1), (1, 1),
+            // which per-vertex coordinates can hold only when no vertex is shared.
+            None if corners.len() == positions.len() && {
+                let mut seen = corners.clone();
+                seen.sort_unstable();
+                seen.dedup();
+                seen.len() == corners.len()
+            } =>
+            {
+                let mut uv = vec![Fixed([0.0, 0.0]); positions.len()];
+                for q in corners.chunks(4) {
+                    for (i, c) in q.iter().zip([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]) {
+                        uv[*i as usize] = Fixed(c);
+                    }
+                }
+                Some(uv)
+            }
+            None => None,
+        };
+        Ok(ShapeDesc::Triangles(desc::Triangles {
+            material,
+            positions,
+            indices: Some(indices),
+            normals: None,
+            uv,
+            transform,
+            emission,
+        }))
     }
 
     /// Refuses a partial quadric: any of `keys` away from its whole-shape default.
