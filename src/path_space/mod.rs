@@ -393,14 +393,6 @@ fn local_dir(v: &Vertex, w: Vec3) -> Option<Vec3> {
     (l.z * w.dot(v.ng) > 0.0).then_some(l)
 }
 
-/// The delta lobe of `bsdf` that turns local `wo` into local `wi`, if any: its coefficient
-/// (f_s without the delta, [`crate::bsdf::BsdfSample::f`]) in `mode` and the probability
-/// with which sampling from `wo` chooses it ([`Bsdf::delta_lobe`]).
-#[inline]
-pub fn delta_lobe(bsdf: &Bsdf, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<(Vec3, f32)> {
-    bsdf.delta_lobe(wo, wi, mode)
-}
-
 /// f_s(x_{i−1} → x_i → x_{i+1}) at surface vertex i (radiance flows from i−1 to i+1).
 pub fn scattering(scene: &Scene, path: &[Vertex], i: usize) -> Vec3 {
     scattering_at(scene, &path[i], &path[i + 1], &path[i - 1])
@@ -417,7 +409,8 @@ pub fn scattering_at(scene: &Scene, v: &Vertex, eye_side: &Vertex, light_side: &
     };
     let bsdf = v.bsdf(scene);
     if v.delta {
-        delta_lobe(&bsdf, wo, wi, TransportMode::Radiance).map_or(Vec3::ZERO, |(f, _)| f)
+        bsdf.delta_lobe(wo, wi, TransportMode::Radiance)
+            .map_or(Vec3::ZERO, |(f, _)| f)
     } else {
         bsdf.eval(wo, wi, TransportMode::Radiance)
     }
@@ -579,7 +572,7 @@ pub fn pdf_eye_step(scene: &Scene, x: &Vertex, v: &Vertex, before: Option<&Verte
 fn direction_pdf(scene: &Scene, v: &Vertex, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
     let bsdf = v.bsdf(scene);
     if v.delta {
-        delta_lobe(&bsdf, wo, wi, mode).map_or(0.0, |(_, p)| p)
+        bsdf.delta_lobe(wo, wi, mode).map_or(0.0, |(_, p)| p)
     } else {
         bsdf.pdf(wo, wi)
     }

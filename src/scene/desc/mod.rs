@@ -486,6 +486,18 @@ fn default_up() -> Triple {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TransformDesc(pub Vec<TransformStep>);
 
+impl TransformDesc {
+    /// A 4 × 4 affine matrix as one `matrix` step (row-major): how the Mitsuba and pbrt
+    /// importers hand over the transforms they compose.
+    pub fn from_matrix(m: glam::DMat4) -> Self {
+        let row = |i: usize| Fixed(m.row(i).to_array());
+        TransformDesc(vec![TransformStep {
+            matrix: Some(Fixed([row(0), row(1), row(2), row(3)])),
+            ..TransformStep::default()
+        }])
+    }
+}
+
 /// One step: scale, then rotate about x, y, z, then translate; or a matrix on its own.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]

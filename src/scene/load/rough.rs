@@ -19,13 +19,13 @@ pub(crate) const PLASTIC_DEFAULT_IOR: f64 = 1.49;
 
 /// A microfacet distribution from Mitsuba's fields: `distribution`, `alpha` or both
 /// `alpha_u`/`alpha_v`, `sample_visible`. Roughness textures are remembered in `textures`
-/// (the model holds their largest values); without `textures` (rough plastic, whose coating
-/// is tabulated for one roughness, as Mitsuba's) they are refused.
+/// (the model holds their largest values) where `textured`; elsewhere (rough plastic, whose
+/// coating is tabulated for one roughness, as Mitsuba's) they are refused.
 pub(super) fn microfacet(
     ctx: &Ctx,
     field: &str,
     r: &Roughness,
-    mut textures: Option<&mut Textures>,
+    (textures, textured): (&mut Textures, bool),
 ) -> Result<Microfacet> {
     let f = |key: &str| format!("{field}.{key}");
     let kind = match r.distribution.as_deref() {
@@ -50,25 +50,13 @@ pub(super) fn microfacet(
     };
     let mut alphas = Vec::with_capacity(2);
     for (param, key, a) in given {
-        let value = match (a, textures.as_deref_mut()) {
-            (desc::ScalarDesc::Texture(_), None) => {
-                return Err(ctx.err(
-                    &f(key),
-                    "expected a number (this model's roughness cannot be a texture)",
-                ));
-            }
-            (a, Some(t)) => t.number_param(ctx, &f(key), a, (MAX_ALPHA, "a roughness"), param)?,
-            (desc::ScalarDesc::Value(v), None) => {
-                if !(v.is_finite() && (0.0..=MAX_ALPHA).contains(v)) {
-                    return Err(ctx.err(
-                        &f(key),
-                        format!("expected a roughness in [0, {}], got {}", num(MAX_ALPHA), num(*v)),
-                    ));
-                }
-                *v as f32
-            }
-        };
-        alphas.push(value);
+        if matches!(a, desc::ScalarDesc::Texture(_)) && !textured {
+            return Err(ctx.err(
+                &f(key),
+                "expected a number (this model's roughness cannot be a texture)",
+            ));
+        }
+        alphas.push(textures.number_param(ctx, &f(key), a, (MAX_ALPHA, "a roughness"), param)?);
     }
     let (alpha_u, alpha_v) = (alphas[0], *alphas.last().unwrap());
     Ok(Microfacet::new(
@@ -159,7 +147,7 @@ pub(super) fn rough_conductor(
 ) -> Result<Bsdf> {
     Ok(Bsdf::RoughConductor(RoughConductor {
         ior: conductor_ior(ctx, field, &c.conductor())?,
-        distribution: microfacet(ctx, field, &c.roughness(), Some(textures))?,
+        distribution: microfacet(ctx, field, &c.roughness(), (textures, true))?,
     }))
 }
 
@@ -172,7 +160,7 @@ pub(super) fn rough_dielectric(
     let f = |key: &str| format!("{field}.{key}");
     Ok(Bsdf::RoughDielectric(RoughDielectric {
         ior: interface_ior(ctx, &f("ior"), m.ior)?,
-        distribution: microfacet(ctx, field, &m.roughness(), Some(textures))?,
+        distribution: microfacet(ctx, field, &m.roughness(), (textures, true))?,
         specular_reflectance: unit_or_one(ctx, &f("specular_reflectance"), m.specular_reflectance)?,
         specular_transmittance: unit_or_one(ctx, &f("specular_transmittance"), m.specular_transmittance)?,
     }))
@@ -180,7 +168,7 @@ pub(super) fn rough_dielectric(
 
 pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic, textures: &mut Textures) -> Result<Bsdf> {
     let f = |key: &str| format!("{field}.{key}");
-    let distribution = microfacet(ctx, field, &m.roughness(), None)?;
+    let distribution = microfacet(ctx, field, &m.roughness(), (textures, false))?;
     if !distribution.is_isotropic() {
         return Err(ctx.err(
             field,

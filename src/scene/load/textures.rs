@@ -66,11 +66,6 @@ impl<'a> Textures<'a> {
         Ok(hi)
     }
 
-    /// A number in [0, 1] that may be a texture (its luminance, every texel's in [0, 1]).
-    pub(super) fn unit_scalar(&mut self, ctx: &Ctx, field: &str, s: &ScalarDesc) -> Result<Scalar> {
-        self.scalar(ctx, field, s, (1.0, "a number"))
-    }
-
     /// A number in [0, `max`] that may be a texture (its luminance, every texel's in range);
     /// `what` names it in the error ("a roughness").
     pub(super) fn scalar(
@@ -80,11 +75,9 @@ impl<'a> Textures<'a> {
         s: &ScalarDesc,
         (max, what): (f64, &str),
     ) -> Result<Scalar> {
+        // A NaN or an infinity fails the range check below.
         let scalar = match s {
-            ScalarDesc::Value(v) if v.is_finite() => Scalar::Constant(*v as f32),
-            ScalarDesc::Value(v) => {
-                return Err(ctx.err(field, format!("expected {what} in [0, {}], got {}", num(max), num(*v))));
-            }
+            ScalarDesc::Value(v) => Scalar::Constant(*v as f32),
             ScalarDesc::Texture(t) => Scalar::Texture(self.texture(ctx, field, t)?),
         };
         let (lo, hi) = scalar.range();
@@ -116,15 +109,12 @@ impl<'a> Textures<'a> {
         range: (f64, &str),
         param: ColorParam,
     ) -> Result<f32> {
-        Ok(match self.scalar(ctx, field, s, range)? {
-            Scalar::Constant(v) => v,
-            t @ Scalar::Texture(_) => {
-                let hi = t.range().1;
-                let Scalar::Texture(t) = t else { unreachable!() };
-                self.params.push((param, t));
-                hi
-            }
-        })
+        let scalar = self.scalar(ctx, field, s, range)?;
+        let hi = scalar.range().1;
+        if let Scalar::Texture(t) = scalar {
+            self.params.push((param, t));
+        }
+        Ok(hi)
     }
 
     fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {

@@ -271,7 +271,7 @@ pub(super) fn materials(
                 let opacity = m.opacity.clone().unwrap_or(desc::ScalarDesc::Value(0.5));
                 (
                     &*m.bsdf,
-                    Some(textures.unit_scalar(ctx, &format!("{field}.opacity"), &opacity)?),
+                    Some(textures.scalar(ctx, &format!("{field}.opacity"), &opacity, (1.0, "an opacity"))?),
                 )
             }
             d => (d, None),

@@ -29,7 +29,9 @@ impl<'a, 'i> Reader<'a, 'i> {
             desc::EnvironmentDesc::Envmap(desc::EnvmapDesc {
                 file: self.loader_path(p, &file, &path)?,
                 scale: self.float(&mut o, "scale")?,
-                transform: self.transform(&mut o, "to_world")?.map(|(_, m)| matrix_step(m)),
+                transform: self
+                    .transform(&mut o, "to_world")?
+                    .map(|(_, m)| desc::TransformDesc::from_matrix(m)),
             })
         };
         if let Some(&c) = o.children.first() {

@@ -78,8 +78,6 @@ mod shapes;
 mod textures;
 mod values;
 
-use values::matrix_step;
-
 use super::desc::{self, MaterialDesc, SceneDesc};
 use crate::error::{Error, Result};
 use glam::DVec3;

@@ -12,7 +12,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         let kind = self.required(n, "type")?;
         let mut o = self.obj(n)?;
         let to_world = self.transform(&mut o, "to_world")?.map(|(_, m)| m);
-        let transform = to_world.map(matrix_step);
+        let transform = to_world.map(desc::TransformDesc::from_matrix);
         let flip_normals = self.boolean(&mut o, "flip_normals")?.unwrap_or(false);
         if flip_normals && !matches!(kind.as_str(), "disk" | "cylinder") {
             return Err(self.err(n, "flip_normals=\"true\" is supported on disks and cylinders only"));

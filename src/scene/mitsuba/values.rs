@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::error::Result;
-use crate::scene::desc::{Fixed, TransformDesc, TransformStep, Triple};
+use crate::scene::desc::{Fixed, Triple};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 use roxmltree::Node;
 use std::collections::BTreeMap;
@@ -313,13 +313,4 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         Ok(Some((t, m)))
     }
-}
-
-/// A 4 × 4 affine matrix as one `matrix` step of our transform format (row-major).
-pub(super) fn matrix_step(m: DMat4) -> TransformDesc {
-    let row = |i: usize| Fixed(m.row(i).to_array());
-    TransformDesc(vec![TransformStep {
-        matrix: Some(Fixed([row(0), row(1), row(2), row(3)])),
-        ..TransformStep::default()
-    }])
 }

@@ -267,13 +267,11 @@ impl<'a> Translator<'a> {
             "perspective" => {
                 check_known(d, params, &["fov", "lensradius", "focaldistance"])?;
                 let r = float_param(d, params, "lensradius")?.unwrap_or(0.0);
-                (r > 0.0).then(|| {
-                    let f = float_param(d, params, "focaldistance").ok().flatten().unwrap_or(1e6);
-                    desc::LensDesc::Thin(desc::ThinLensDesc {
-                        aperture_radius: r,
-                        focus_distance: f,
-                    })
-                })
+                let focus_distance = float_param(d, params, "focaldistance")?.unwrap_or(1e6);
+                (r > 0.0).then_some(desc::LensDesc::Thin(desc::ThinLensDesc {
+                    aperture_radius: r,
+                    focus_distance,
+                }))
             }
             "orthographic" => {
                 check_known(d, params, &[])?;
@@ -412,19 +410,9 @@ mod content;
 use content::{bool_param, check_known, column_major, float_param, string_param};
 
 impl Translator<'_> {
-    /// The directory of the scene file (relative names in parameters start here).
-    fn dir(&self) -> &Path {
-        self.dir
-    }
-
     /// A transform step for the current transform.
     fn ctm_desc(&self) -> TransformDesc {
-        let m = self.state.ctm;
-        let row = |i: usize| Fixed(m.row(i).to_array());
-        TransformDesc(vec![desc::TransformStep {
-            matrix: Some(Fixed([row(0), row(1), row(2), row(3)])),
-            ..desc::TransformStep::default()
-        }])
+        TransformDesc::from_matrix(self.state.ctm)
     }
 
     /// Whether the current transform mirrors (pbrt's `SwapsHandedness`).

@@ -139,7 +139,6 @@ impl Translator<'_> {
 
     /// One material of pbrt-v4 as ours (module doc for the mappings).
     pub(super) fn material(&mut self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
-        let f = |x: f64| x;
         Ok(match kind {
             "diffuse" => {
                 check_known(d, params, &["reflectance"])?;
@@ -155,7 +154,7 @@ impl Translator<'_> {
                 let rgb = |name: &str| -> Result<Triple> {
                     match self.colour(d, params, name, true)? {
                         None => Ok(Fixed([0.25 * s; 3])),
-                        Some(Color::Rgb(c)) => Ok(Fixed(c.0.map(|x| f(x) * s))),
+                        Some(Color::Rgb(c)) => Ok(Fixed(c.0.map(|x| x * s))),
                         Some(Color::Texture(_)) => Err(d.err(format!("{name}: a texture is not read here"))),
                     }
                 };
@@ -447,7 +446,7 @@ impl Translator<'_> {
                 };
                 // pbrt's image (u, v) puts v = 0 at the bottom row; ours at the top: flip v.
                 TextureDesc::Bitmap(desc::BitmapDesc {
-                    file: self.dir().join(&file).display().to_string(),
+                    file: self.dir.join(&file).display().to_string(),
                     filter,
                     wrap,
                     raw,
@@ -543,7 +542,7 @@ impl Translator<'_> {
                 }
                 ShapeDesc::Mesh(desc::Mesh {
                     material,
-                    file: self.dir().join(&file).display().to_string(),
+                    file: self.dir.join(&file).display().to_string(),
                     face_normals: false,
                     smooth_normals: false,
                     shape_index: None,
@@ -579,7 +578,7 @@ impl Translator<'_> {
                 ShapeDesc::Disk(desc::Disk {
                     material,
                     flip_normals: ro,
-                    transform: Some(matrix_desc(m)),
+                    transform: Some(TransformDesc::from_matrix(m)),
                     emission,
                 })
             }
@@ -775,13 +774,4 @@ impl Translator<'_> {
         }
         Ok(())
     }
-}
-
-/// A 4 × 4 matrix as one `matrix` transform step.
-fn matrix_desc(m: DMat4) -> TransformDesc {
-    let row = |i: usize| Fixed(m.row(i).to_array());
-    TransformDesc(vec![desc::TransformStep {
-        matrix: Some(Fixed([row(0), row(1), row(2), row(3)])),
-        ..desc::TransformStep::default()
-    }])
 }
