@@ -273,10 +273,7 @@ fn materials_map_to_ours() {
 fn what_is_not_read_is_refused_naming_the_line() {
     let dir = tempfile::tempdir().unwrap();
     for (extra, expect) in [
-        (
-            "Material \"coateddiffuse\"",
-            &["line 13", "Material", "coateddiffuse"][..],
-        ),
+        ("Material \"hair\"", &["line 13", "Material", "hair"][..]),
         ("ObjectBegin \"tree\"", &["line 13", "ObjectBegin", "not supported"]),
         (
             "Shape \"sphere\" \"float phimax\" 180",

@@ -28,6 +28,9 @@
 //! - [`RoughPlastic`]: a diffuse base under a rough dielectric coating, Mitsuba 3's
 //!   `roughplastic`.
 //! - [`Blend`]: (1 − w) f₀ + w f₁ of two models, Mitsuba 3's `blendbsdf`.
+//! - [`Coated`]: pbrt-v4's layered `coateddiffuse` and `coatedconductor`, evaluated by random
+//!   walks between a dielectric coating and its base: `eval` and `pdf` are deterministic
+//!   estimates and a sample's f is not `eval`'s (the contract is in `coated.rs`).
 //!
 //! The microfacet models share [`Microfacet`] (Beckmann and GGX, visible-normal sampling).
 //!
@@ -41,6 +44,7 @@
 //! its own parameters); colour helpers come from [`crate::color`].
 
 mod blend;
+mod coated;
 mod conductor;
 mod dielectric;
 mod diffuse_transmission;
@@ -50,17 +54,20 @@ mod mirror;
 pub mod named_conductors;
 mod phong;
 mod plastic;
-mod rough_dielectric;
+pub(crate) mod rough_dielectric;
 mod rough_plastic;
 mod thin_dielectric;
 mod ward;
 
+#[cfg(test)]
+mod coated_tests;
 #[cfg(test)]
 mod microfacet_tests;
 #[cfg(test)]
 mod tests;
 
 pub use blend::Blend;
+pub use coated::{Coat, Coated};
 pub use conductor::{Conductor, ConductorIor, RoughConductor, fresnel_conductor, named_conductor_list};
 pub use dielectric::{Dielectric, fresnel_dielectric, refract};
 pub use diffuse_transmission::DiffuseTransmission;
@@ -69,7 +76,7 @@ pub use microfacet::{MIN_ALPHA, Microfacet, MicrofacetType};
 pub use mirror::Mirror;
 pub use phong::Phong;
 pub use plastic::{Plastic, fresnel_diffuse_reflectance};
-pub use rough_dielectric::RoughDielectric;
+pub use rough_dielectric::{Lobes, RoughDielectric};
 pub use rough_plastic::RoughPlastic;
 pub use thin_dielectric::ThinDielectric;
 pub use ward::Ward;
@@ -84,6 +91,17 @@ use glam::{Vec2, Vec3};
 pub enum TransportMode {
     Radiance,
     Importance,
+}
+
+impl TransportMode {
+    /// The other mode: the quantity a path traced the opposite way carries.
+    #[inline]
+    pub fn adjoint(self) -> Self {
+        match self {
+            TransportMode::Radiance => TransportMode::Importance,
+            TransportMode::Importance => TransportMode::Radiance,
+        }
+    }
 }
 
 /// Classification of a surface for the photon-mapping path grammar (L, D, S, E).
@@ -129,6 +147,8 @@ pub enum Bsdf {
     OneSided(Box<Bsdf>),
     /// Two models blended ([`Blend`]); a delta lobe in either makes it [`Bsdf::mixes_delta`].
     Blend(Box<Blend>),
+    /// A coating over a base, evaluated by random walks ([`Coated`]; [`Bsdf::is_stochastic`]).
+    Coated(Box<Coated>),
 }
 
 /// A colour parameter that a texture can drive ([`crate::scene::Material::textures`]).
@@ -199,13 +219,20 @@ impl BsdfSample {
         })
     }
 
-    /// The sample a guided mixture (BSDF and a guiding density) drew: direction `wi`, the
-    /// BSDF's value there (radiance transport) and the mixture's density `pdf_w`; `None` where
-    /// that density is zero.
-    pub fn of_mixture(bsdf: &Bsdf, wo: Vec3, wi: Vec3, pdf_w: f32) -> Option<Self> {
-        (pdf_w > 0.0).then(|| BsdfSample {
+    /// The sample a guided mixture (BSDF and a guiding density) drew: direction `wi`, by the
+    /// BSDF's own sampler (`drawn`, that sample) or by the guide, the BSDF's value there
+    /// (radiance transport) and the mixture's density `pdf_w`; `None` where that density is
+    /// zero. A stochastic model's own sample keeps its f (its walk's weight times the density
+    /// estimate, [`Coated`]): with the mixture of the same estimates this one-sample
+    /// combination stays unbiased, as `eval` at the walk's direction would not.
+    pub fn of_mixture(bsdf: &Bsdf, wo: Vec3, wi: Vec3, drawn: Option<&BsdfSample>, pdf_w: f32) -> Option<Self> {
+        let f = match drawn {
+            Some(s) if bsdf.is_stochastic() => s.f,
+            _ => bsdf.eval(wo, wi, TransportMode::Radiance),
+        };
+        (pdf_w > 0.0).then_some(BsdfSample {
             wi,
-            f: bsdf.eval(wo, wi, TransportMode::Radiance),
+            f,
             pdf_w,
             delta: false,
         })
@@ -230,6 +257,7 @@ impl Bsdf {
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.eval(wo, wi, mode),
             Bsdf::OneSided(_) => Vec3::ZERO,
             Bsdf::Blend(b) => b.eval(wo, wi, mode),
+            Bsdf::Coated(b) => b.eval(wo, wi, mode),
         }
     }
 
@@ -249,6 +277,7 @@ impl Bsdf {
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.pdf(wo, wi),
             Bsdf::OneSided(_) => 0.0,
             Bsdf::Blend(b) => b.pdf(wo, wi),
+            Bsdf::Coated(b) => b.pdf(wo, wi),
         }
     }
 
@@ -271,6 +300,7 @@ impl Bsdf {
             Bsdf::OneSided(b) if wo.z > 0.0 => b.sample(wo, u, u_lobe, mode).filter(|s| s.wi.z > 0.0),
             Bsdf::OneSided(_) => None,
             Bsdf::Blend(b) => b.sample(wo, u, u_lobe, mode),
+            Bsdf::Coated(b) => b.sample(wo, u, u_lobe, mode),
         }
     }
 
@@ -314,6 +344,8 @@ impl Bsdf {
         use ColorParam::*;
         let field = match (self, param) {
             (Bsdf::OneSided(b), _) => return b.set_color(param, c),
+            // The base's colour (pbrt's `reflectance` of a coated diffuse, a conductor's tint).
+            (Bsdf::Coated(b), Reflectance | SpecularReflectance) => return b.base.set_color(param, c),
             (Bsdf::Blend(b), Weight) => {
                 b.weight = c.x.clamp(0.0, 1.0);
                 return true;
@@ -348,6 +380,11 @@ impl Bsdf {
     pub fn kind(&self) -> SurfaceKind {
         match self {
             Bsdf::OneSided(b) => b.kind(),
+            Bsdf::Coated(b) if b.is_mirror() => SurfaceKind::Specular,
+            Bsdf::Coated(b) if b.base.kind() == SurfaceKind::Diffuse || b.albedo.cmpgt(Vec3::ZERO).any() => {
+                SurfaceKind::Diffuse
+            }
+            Bsdf::Coated(_) => SurfaceKind::Glossy,
             // The richer model's class (a textured weight may give either model the whole
             // surface somewhere).
             Bsdf::Blend(b) => match b.bsdfs.each_ref().map(Bsdf::kind) {
@@ -388,6 +425,9 @@ impl Bsdf {
         match self {
             Bsdf::OneSided(b) => b.is_anisotropic(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::is_anisotropic),
+            Bsdf::Coated(b) => {
+                b.base.is_anisotropic() || matches!(&b.coat, Coat::Rough(d) if !d.distribution.is_isotropic())
+            }
             Bsdf::Ward(b) => b.alpha_x != b.alpha_y,
             Bsdf::RoughConductor(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             Bsdf::RoughDielectric(b) => b.distribution.alpha_u != b.distribution.alpha_v,
@@ -403,6 +443,7 @@ impl Bsdf {
         match self {
             Bsdf::OneSided(b) => b.mixes_delta(),
             Bsdf::Plastic(b) => has_energy(b.diffuse_reflectance),
+            Bsdf::Coated(b) => b.mixes_delta(),
             // A delta lobe in one model beside a non-delta one in either.
             Bsdf::Blend(b) => {
                 let has_delta = |m: &Bsdf| m.is_delta() || m.mixes_delta();
@@ -421,6 +462,7 @@ impl Bsdf {
             Bsdf::OneSided(_) => 0.0,
             Bsdf::Plastic(b) if has_energy(b.diffuse_reflectance) => b.specular_probability(wo.z.abs()),
             Bsdf::Blend(b) => b.delta_probability(wo),
+            Bsdf::Coated(b) => b.delta_probability(wo),
             b if b.is_delta() => 1.0,
             _ => 0.0,
         }
@@ -453,6 +495,9 @@ impl Bsdf {
             Bsdf::OneSided(b) => b.albedo(),
             // Either model may have the whole surface where a texture drives the weight.
             Bsdf::Blend(b) => b.bsdfs[0].albedo().max(b.bsdfs[1].albedo()),
+            // F + (1 − F) ρ_inside ≤ 1: the coating's Fresnel reflection alone reaches 1 at
+            // grazing angles.
+            Bsdf::Coated(_) => Vec3::ONE,
         }
     }
 
@@ -572,6 +617,20 @@ impl Bsdf {
                 b.bsdfs[0].validate()?;
                 b.bsdfs[1].validate()
             }
+            Bsdf::Coated(b) => b.validate(),
+        }
+    }
+
+    /// True when `eval` and `pdf` are estimates rather than values (pbrt's layered models,
+    /// [`Coated`]): a sample's f then differs from `eval` at its direction, and its `pdf_w` is
+    /// not the density of the direction drawn. Strategies whose correctness needs that density
+    /// (Metropolis proposals) refuse such models.
+    pub fn is_stochastic(&self) -> bool {
+        match self {
+            Bsdf::OneSided(b) => b.is_stochastic(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::is_stochastic),
+            Bsdf::Coated(b) => !b.is_mirror(),
+            _ => false,
         }
     }
 }

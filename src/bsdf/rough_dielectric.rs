@@ -113,12 +113,21 @@ impl RoughDielectric {
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.pdf_lobes(wo, wi, Lobes::All)
+    }
+
+    /// The density of [`RoughDielectric::sample_lobes`] restricted to `lobes`: the chosen
+    /// lobe's share is F or 1 − F among both lobes and 1 when only one may be drawn (pbrt-v4's
+    /// `BxDFReflTransFlags`, which its layered models use).
+    pub fn pdf_lobes(&self, wo: Vec3, wi: Vec3, lobes: Lobes) -> f32 {
         let Some(HalfVector { m, reflect, eta }) = self.half_vector(wo, wi) else {
             return 0.0;
         };
         let wo_up = if wo.z < 0.0 { -wo } else { wo };
         let p_m = self.sampling_distribution(wo).pdf(wo_up, m);
-        let f = self.fresnel(wo, m);
+        let Some(share) = lobes.share(self.fresnel(wo, m), reflect) else {
+            return 0.0;
+        };
         let wi_m = wi.dot(m);
         let jacobian = if reflect {
             1.0 / (4.0 * wi_m.abs())
@@ -126,12 +135,25 @@ impl RoughDielectric {
             let denom = wo.dot(m) + eta * wi_m;
             eta * eta * wi_m.abs() / (denom * denom)
         };
-        let p = p_m * if reflect { f } else { 1.0 - f } * jacobian;
+        let p = p_m * share * jacobian;
         if p.is_finite() { p } else { 0.0 }
     }
 
     /// Draws m, then reflects (`u_lobe` < F) or refracts through it.
     pub fn sample(&self, wo: Vec3, u: Vec2, u_lobe: f32, mode: TransportMode) -> Option<BsdfSample> {
+        self.sample_lobes(wo, u, u_lobe, mode, Lobes::All)
+    }
+
+    /// [`RoughDielectric::sample`] drawing only `lobes`: reflection or refraction through the
+    /// sampled m when only one is allowed, its density [`RoughDielectric::pdf_lobes`].
+    pub fn sample_lobes(
+        &self,
+        wo: Vec3,
+        u: Vec2,
+        u_lobe: f32,
+        mode: TransportMode,
+        lobes: Lobes,
+    ) -> Option<BsdfSample> {
         if wo.z == 0.0 {
             return None;
         }
@@ -142,8 +164,7 @@ impl RoughDielectric {
         if wo.dot(m) * wo.z <= 0.0 {
             return None;
         }
-        let f = self.fresnel(wo, m);
-        let reflect = u_lobe < f;
+        let reflect = lobes.choose_reflection(self.fresnel(wo, m), u_lobe)?;
         let wi = if reflect {
             2.0 * wo.dot(m) * m - wo
         } else {
@@ -156,13 +177,50 @@ impl RoughDielectric {
         if (wo.z * wi.z > 0.0) != reflect {
             return None;
         }
-        let pdf_w = self.pdf(wo, wi);
+        let pdf_w = self.pdf_lobes(wo, wi, lobes);
         (pdf_w > 0.0).then(|| BsdfSample {
             wi,
             f: self.eval(wo, wi, mode),
             pdf_w,
             delta: false,
         })
+    }
+}
+
+/// Which lobes of a dielectric interface a sampler may draw (pbrt-v4's `BxDFReflTransFlags`):
+/// its layered models walk through a coating by asking for transmission alone or reflection
+/// alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobes {
+    All,
+    Reflection,
+    Transmission,
+}
+
+impl Lobes {
+    /// The probability of drawing reflection (`reflect`) or refraction given the Fresnel
+    /// reflectance `f` of the interface; `None` when the lobe is excluded or has no weight.
+    #[inline]
+    pub fn share(self, f: f32, reflect: bool) -> Option<f32> {
+        let p = match (self, reflect) {
+            (Lobes::All, true) => f,
+            (Lobes::All, false) => 1.0 - f,
+            (Lobes::Reflection, true) => (f > 0.0) as u8 as f32,
+            (Lobes::Transmission, false) => (f < 1.0) as u8 as f32,
+            _ => 0.0,
+        };
+        (p > 0.0).then_some(p)
+    }
+
+    /// Whether `u` (uniform) draws reflection given Fresnel reflectance `f`; `None` when no
+    /// allowed lobe carries light.
+    #[inline]
+    pub fn choose_reflection(self, f: f32, u: f32) -> Option<bool> {
+        match self {
+            Lobes::All => Some(u < f),
+            Lobes::Reflection => (f > 0.0).then_some(true),
+            Lobes::Transmission => (f < 1.0).then_some(false),
+        }
     }
 }
 

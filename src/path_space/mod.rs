@@ -51,6 +51,15 @@
 //! area density |cos θ₁| / πR², and the eye side reaches x₀ by a ray that leaves the scene, with
 //! the BSDF's solid-angle density (never a directional light's delta).
 //!
+//! **Layered models** (pbrt-v4's coated materials, [`crate::bsdf::Coated`]) have only estimates
+//! of f_s and of their sampling density p̃. Densities then enter only MIS weights, where the
+//! same deterministic p̃ for every technique keeps the weights a partition of one; but a walk's
+//! f / p must be the walk's own weight, not f̃ / p̃ at the direction it drew (that ratio is
+//! biased: the direction was drawn from the walk's true density, not from p̃). So the walk
+//! records its sample ([`Vertex::sampled`]), and f_s on that pair of edges is the f the sample
+//! reported, weight × p̃ ([`scattering_at`]); every other pair (a connection, a merge) reads
+//! the model's estimate. Metropolis proposals need true densities and refuse these models.
+//!
 //! Directions at a surface vertex must lie on the sides that the shading frame and the
 //! geometric normal agree on (as in the path tracer); otherwise f = 0.
 //!
@@ -116,6 +125,20 @@ pub struct Vertex {
     /// and becomes delta when the walk leaving it samples the delta lobe
     /// ([`walk::sample_direction`]). Module doc, "Specular vertices".
     pub mixed: bool,
+    /// The walk's own sample here when the material is a stochastic model (pbrt's layered
+    /// models, [`crate::bsdf::Bsdf::is_stochastic`]); `None` otherwise. Module doc, "Layered
+    /// models".
+    pub sampled: Option<SampledScattering>,
+}
+
+/// What a walk drew at a vertex of a stochastic model: the direction it left along (world), the
+/// mode it sampled in and the f the sample reported, which stands for f_s on the walk's own
+/// pair of edges ([`scattering_at`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SampledScattering {
+    pub toward: Vec3,
+    pub mode: TransportMode,
+    pub f: Vec3,
 }
 
 impl Vertex {
@@ -132,6 +155,7 @@ impl Vertex {
             kind: VertexKind::Surface,
             delta: bsdf.is_delta(),
             mixed: bsdf.mixes_delta(),
+            sampled: None,
         }
     }
 
@@ -148,6 +172,7 @@ impl Vertex {
             kind: VertexKind::Light(light as u32),
             delta: false,
             mixed: false,
+            sampled: None,
         }
     }
 
@@ -168,6 +193,7 @@ impl Vertex {
                 kind: VertexKind::DeltaLight(j as u32),
                 delta: false,
                 mixed: false,
+                sampled: None,
             },
         }
     }
@@ -191,6 +217,7 @@ impl Vertex {
             kind,
             delta: false,
             mixed: false,
+            sampled: None,
         }
     }
 
@@ -219,6 +246,7 @@ impl Vertex {
             kind: VertexKind::Eye,
             delta: false,
             mixed: false,
+            sampled: None,
         }
     }
 
@@ -399,7 +427,9 @@ pub fn scattering(scene: &Scene, path: &[Vertex], i: usize) -> Vec3 {
 }
 
 /// f_s at surface vertex `v` for radiance arriving from `light_side` and leaving toward
-/// `eye_side` ([`scattering`] of the vertex between them).
+/// `eye_side` ([`scattering`] of the vertex between them). On the edge a walk drew at a
+/// stochastic model ([`Vertex::sampled`]) it is the f that sample reported, so that a path's
+/// f / p is the walk's weight (module doc, "Layered models").
 pub fn scattering_at(scene: &Scene, v: &Vertex, eye_side: &Vertex, light_side: &Vertex) -> Vec3 {
     let (Some(wo), Some(wi)) = (
         local_dir(v, direction(v, eye_side).0),
@@ -407,6 +437,15 @@ pub fn scattering_at(scene: &Scene, v: &Vertex, eye_side: &Vertex, light_side: &
     ) else {
         return Vec3::ZERO;
     };
+    if let Some(s) = &v.sampled {
+        let drawn = match s.mode {
+            TransportMode::Radiance => light_side,
+            TransportMode::Importance => eye_side,
+        };
+        if direction(v, drawn).0.dot(s.toward) > 1.0 - 1e-6 {
+            return s.f;
+        }
+    }
     let bsdf = v.bsdf(scene);
     if v.delta {
         bsdf.delta_lobe(wo, wi, TransportMode::Radiance)

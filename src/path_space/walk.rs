@@ -58,13 +58,21 @@ pub fn scatter(scene: &Scene, walk: &mut [Vertex], mode: TransportMode, rng: &mu
     let (v, from) = (&walk[n - 1], &walk[n - 2]);
     let wo = v.frame.to_local(direction(v, from).0);
     let (u, u_lobe) = (rng.uniform2(), rng.uniform());
-    let s = v.bsdf(scene).sample(wo, u, u_lobe, mode)?;
+    let bsdf = v.bsdf(scene);
+    let s = bsdf.sample(wo, u, u_lobe, mode)?;
     if s.pdf_w <= 0.0 || s.f == Vec3::ZERO {
         return None;
     }
     let wi = v.frame.to_world(s.wi);
     if wi.dot(v.ng) * s.wi.z <= 0.0 {
         return None;
+    }
+    if bsdf.is_stochastic() {
+        walk[n - 1].sampled = Some(super::SampledScattering {
+            toward: wi,
+            mode,
+            f: s.f,
+        });
     }
     walk[n - 1].delta = s.delta;
     Some(Step {

@@ -638,6 +638,12 @@ fn material_xml(
             )
         }
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
+        MaterialDesc::Coated(_) => {
+            return Err(err(
+                field,
+                "coated (pbrt-v4's layered models) has no Mitsuba 3 equivalent",
+            ));
+        }
         MaterialDesc::DiffuseTransmission(_) => {
             return Err(err(field, "diffuse_transmission has no Mitsuba 3 equivalent"));
         }

@@ -77,7 +77,12 @@ impl Declared for Mlt {
 
 impl Strategy for Mlt {
     fn capabilities(&self) -> crate::strategy::Capabilities {
-        crate::strategy::Capabilities::ALL
+        crate::strategy::Capabilities {
+            // The acceptance of a bidirectional proposal needs the true density of each
+            // regenerated direction, which layered models only estimate.
+            stochastic_bsdfs: false,
+            ..crate::strategy::Capabilities::ALL
+        }
     }
 
     fn kind(&self) -> &'static str {

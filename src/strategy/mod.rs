@@ -70,6 +70,11 @@ pub struct Capabilities {
     /// every surface vertex is kept with its α by the ray that found it, and a density estimate
     /// divides a stored photon's power by α there.
     pub opacity_masks: bool,
+    /// Models whose value and density are estimates (pbrt-v4's layered `coateddiffuse` and
+    /// `coatedconductor`, [`crate::bsdf::Bsdf::is_stochastic`]): the strategy stays unbiased
+    /// when a sampled direction's density is only known approximately, as it is for MIS and
+    /// plain BSDF sampling, and not for Metropolis proposals.
+    pub stochastic_bsdfs: bool,
 }
 
 impl Capabilities {
@@ -80,6 +85,7 @@ impl Capabilities {
         lens_camera: false,
         mixed_delta: false,
         opacity_masks: false,
+        stochastic_bsdfs: false,
     };
     pub const ALL: Self = Self {
         environment: true,
@@ -88,6 +94,7 @@ impl Capabilities {
         lens_camera: true,
         mixed_delta: true,
         opacity_masks: true,
+        stochastic_bsdfs: true,
     };
 }
 
@@ -128,6 +135,10 @@ pub trait Strategy: Send + Sync {
 
     fn handles_opacity_masks(&self) -> bool {
         self.capabilities().opacity_masks
+    }
+
+    fn handles_stochastic_bsdfs(&self) -> bool {
+        self.capabilities().stochastic_bsdfs
     }
 
     /// Work done once per scene and seed before any sample is taken.
@@ -178,8 +189,8 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
         && !strategy.handles_mixed_delta()
     {
         crate::bail!(
-            "{}: strategy `{}` does not render material {:?} (a smooth plastic: a delta coating over a \
-             diffuse base) yet; strategies that do: {}",
+            "{}: strategy `{}` does not render material {:?} (a delta lobe beside smooth ones: a smooth \
+             plastic or coating) yet; strategies that do: {}",
             scene.source.display(),
             strategy.kind(),
             m.name,
@@ -207,6 +218,18 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
             strategy.kind(),
             m.name,
             able(|s| s.handles_opacity_masks()).join(", ")
+        );
+    }
+    if let Some(m) = scene.materials.iter().find(|m| m.bsdf.is_stochastic())
+        && !strategy.handles_stochastic_bsdfs()
+    {
+        crate::bail!(
+            "{}: strategy `{}` does not render material {:?} (a layered model evaluated by random walks, \
+             whose sampling density is only estimated) yet; strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            m.name,
+            able(|s| s.handles_stochastic_bsdfs()).join(", ")
         );
     }
     if scene.environment.is_some() && !strategy.handles_environment() {

@@ -27,6 +27,7 @@ pub enum MaterialDesc {
     OneSided(OneSided),
     Mask(Mask),
     Blend(Blend),
+    Coated(Coated),
 }
 
 /// A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`).
@@ -256,6 +257,33 @@ rough_material! {
         /// Relative index of the coating; default 1.49 (polypropylene), Mitsuba's default.
         pub ior: Option<f64>,
         pub nonlinear: Option<bool>,
+    }
+}
+
+rough_material! {
+    /// pbrt-v4's layered `coateddiffuse` / `coatedconductor` ([`crate::bsdf::Coated`]): a
+    /// dielectric coating over a `diffuse`, `conductor` or `rough_conductor` base, evaluated by
+    /// random walks. The coating is smooth unless `alpha` (or `alpha_u` and `alpha_v`, numbers)
+    /// is given; its `distribution` defaults to "ggx" (pbrt's Trowbridge–Reitz).
+    Coated {
+        /// The base: a `diffuse`, `conductor` or `rough_conductor` material (colour textures
+        /// allowed), a conductor's η and k relative to the coating.
+        pub base: Box<MaterialDesc>,
+        /// Relative index of the coating over the outside; default 1.5 (pbrt's).
+        pub ior: Option<f64>,
+        /// Optical depth of the slab between coating and base; default 0.01 (pbrt's).
+        pub thickness: Option<f64>,
+        /// Single-scattering albedo of the slab; default 0 (a clear slab).
+        pub albedo: Option<Triple>,
+        /// Henyey–Greenstein asymmetry of the slab; default 0.
+        pub g: Option<f64>,
+        /// Largest number of events of a walk; default 10.
+        pub max_depth: Option<u32>,
+        /// Walks per evaluation; default 1.
+        pub samples: Option<u32>,
+        /// "exact" (default) or "pbrt": pbrt-v4's connection weights, which are biased under a
+        /// rough coating ([`crate::bsdf::Coated`]).
+        pub weights: Option<String>,
     }
 }
 

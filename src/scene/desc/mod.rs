@@ -108,6 +108,13 @@
 //! weight = 0.3                      # w in [0, 1] (default 0.5) or a texture's luminance
 //! bsdfs = [{ type = "rough_plastic", diffuse_reflectance = [0, 0, 0], distribution = "ggx", alpha = 0.3 },
 //!          { type = "conductor", material = "Au" }]   # two materials without textures
+//! [materials.varnish]
+//! type = "coated"                   # pbrt-v4's coateddiffuse / coatedconductor: a dielectric
+//! base = { type = "diffuse", reflectance = [0.4, 0.2, 0.1] }  # coating (ior, default 1.5)
+//! alpha = 0.1                       # over a diffuse, conductor or rough_conductor base; rough
+//!                                   # with alpha (GGX), smooth without; thickness (0.01),
+//!                                   # albedo (0), g (0), max_depth (10), samples (1),
+//!                                   # weights ("exact" or "pbrt"); not in mlt, mps
 //!
 //! # Shapes; every shape takes `material` (required), `transform` and `emission` (optional).
 //! [[shapes]]

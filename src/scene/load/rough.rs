@@ -4,8 +4,8 @@
 use super::textures::Textures;
 use super::*;
 use crate::bsdf::{
-    Bsdf, ColorParam, Conductor, ConductorIor, Microfacet, MicrofacetType, Plastic, RoughConductor, RoughDielectric,
-    RoughPlastic, named_conductor_list,
+    Bsdf, Coat, Coated, ColorParam, Conductor, ConductorIor, Dielectric, Microfacet, MicrofacetType, Plastic,
+    RoughConductor, RoughDielectric, RoughPlastic, named_conductor_list,
 };
 use crate::error::Result;
 use crate::scene::desc::{self, Roughness, Triple};
@@ -201,4 +201,84 @@ pub(super) fn plastic(ctx: &Ctx, field: &str, m: &desc::Plastic, textures: &mut 
         ior: interface_ior(ctx, &f("ior"), m.ior.unwrap_or(PLASTIC_DEFAULT_IOR))?,
         nonlinear: m.nonlinear.unwrap_or(false),
     }))
+}
+
+/// A layered model: the coating (smooth unless a roughness is given), the base built by
+/// `make_base` (only its colours may be textures) and the slab.
+pub(super) fn coated(
+    ctx: &Ctx,
+    field: &str,
+    m: &desc::Coated,
+    textures: &mut Textures,
+    make_base: impl FnOnce(&mut Textures) -> Result<Bsdf>,
+) -> Result<Bsdf> {
+    let f = |key: &str| format!("{field}.{key}");
+    let ior = interface_ior(ctx, &f("ior"), m.ior.unwrap_or(1.5))?;
+    let rough = m.alpha.is_some() || m.alpha_u.is_some() || m.alpha_v.is_some();
+    let coat = if rough {
+        let roughness = Roughness {
+            distribution: m.distribution.clone().or(Some("ggx".into())),
+            ..m.roughness()
+        };
+        Coat::Rough(RoughDielectric {
+            ior,
+            distribution: microfacet(ctx, field, &roughness, (textures, false))?,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+        })
+    } else if m.distribution.is_some() || m.sample_visible.is_some() {
+        return Err(ctx.err(
+            field,
+            "a smooth coating takes no distribution: give alpha for a rough one",
+        ));
+    } else {
+        Coat::Smooth(Dielectric::clear(ior))
+    };
+    let before = textures.params.len();
+    let base = make_base(textures)?;
+    if textures.params[before..].iter().any(|(param, _)| param.is_number()) {
+        return Err(ctx.err(
+            &f("base"),
+            "expected numbers for the base's roughness (only its colours may be textures)",
+        ));
+    }
+    let thickness = m.thickness.unwrap_or(0.01);
+    if !(thickness.is_finite() && (0.0..=1e4).contains(&thickness)) {
+        return Err(ctx.err(
+            &f("thickness"),
+            format!("expected a number in [0, 1e4], got {}", num(thickness)),
+        ));
+    }
+    let g = m.g.unwrap_or(0.0);
+    if !(g.is_finite() && g.abs() < 1.0) {
+        return Err(ctx.err(&f("g"), format!("expected a number in (−1, 1), got {}", num(g))));
+    }
+    let max_depth = m.max_depth.unwrap_or(10);
+    if !(1..=100).contains(&max_depth) {
+        return Err(ctx.err(
+            &f("max_depth"),
+            format!("expected an integer in [1, 100], got {max_depth}"),
+        ));
+    }
+    let samples = m.samples.unwrap_or(1);
+    if !(1..=64).contains(&samples) {
+        return Err(ctx.err(&f("samples"), format!("expected an integer in [1, 64], got {samples}")));
+    }
+    let pbrt_weights = match m.weights.as_deref() {
+        None | Some("exact") => false,
+        Some("pbrt") => true,
+        Some(other) => return Err(ctx.err(&f("weights"), format!("expected \"exact\" or \"pbrt\", got {other:?}"))),
+    };
+    Ok(Bsdf::Coated(Box::new(Coated {
+        coat,
+        base,
+        thickness: thickness as f32,
+        albedo: m
+            .albedo
+            .map_or(Ok(Vec3::ZERO), |a| Ok(rgb(ctx.unit_rgb(&f("albedo"), a)?)))?,
+        g: g as f32,
+        max_depth,
+        n_samples: samples,
+        pbrt_weights,
+    })))
 }

@@ -248,7 +248,7 @@ fn the_documented_example_loads() {
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 16);
+    assert_eq!(scene.materials.len(), 17);
     let blend = scene.materials.iter().find(|m| m.name == "worn_gold").unwrap();
     assert!(
         blend.bsdf.mixes_delta(),

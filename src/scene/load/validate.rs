@@ -382,6 +382,15 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                 validate_material(ctx, &field, b)?;
             }
         }
+        MaterialDesc::Coated(m) => {
+            if !matches!(
+                *m.base,
+                MaterialDesc::Diffuse(_) | MaterialDesc::Conductor(_) | MaterialDesc::RoughConductor(_)
+            ) {
+                return Err(ctx.err(&f("base"), "expected a diffuse, conductor or rough_conductor material"));
+            }
+            validate_material(ctx, &f("base"), &m.base)?;
+        }
         MaterialDesc::Mask(m) => {
             if matches!(*m.bsdf, MaterialDesc::Mask(_)) {
                 return Err(ctx.err(&f("bsdf"), "expected a material that is not itself a mask"));
@@ -470,6 +479,9 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         // anywhere else.
         MaterialDesc::Mask(m) => make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?,
         MaterialDesc::Blend(m) => blend(ctx, field, m, textures)?,
+        MaterialDesc::Coated(m) => rough::coated(ctx, field, m, textures, |textures| {
+            make_bsdf(ctx, &format!("{field}.base"), &m.base, textures)
+        })?,
     };
     // The description was validated field by field; this is the models' own check, kept as a
     // second line of defence (f64 → f32 rounding could tip a sum over 1).

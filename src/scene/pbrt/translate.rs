@@ -406,6 +406,7 @@ impl<'a> Translator<'a> {
 }
 
 mod content;
+mod materials;
 
 use content::{bool_param, check_known, column_major, float_param, string_param};
 

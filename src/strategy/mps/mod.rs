@@ -262,6 +262,8 @@ impl Strategy for Mps {
     fn capabilities(&self) -> crate::strategy::Capabilities {
         crate::strategy::Capabilities {
             opacity_masks: false,
+            // Its proposals' acceptance needs true densities of the directions they draw.
+            stochastic_bsdfs: false,
             ..crate::strategy::Capabilities::ALL
         }
     }

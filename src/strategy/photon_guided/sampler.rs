@@ -178,13 +178,14 @@ impl DirectionSampler for GridSampler<'_> {
         }
         let alpha = self.params.bsdf_mixture;
         let (u, u_choice) = (rng.uniform2(), rng.uniform());
-        let wi = if u_choice < alpha {
+        let (wi, drawn) = if u_choice < alpha {
             // Given this branch, u_choice / α is uniform again: it picks a glossy model's lobe.
-            bsdf.sample(wo, u, u_choice / alpha, TransportMode::Radiance)?.wi
+            let s = bsdf.sample(wo, u, u_choice / alpha, TransportMode::Radiance)?;
+            (s.wi, Some(s))
         } else {
-            self.sample_grid(v, u)?
+            (self.sample_grid(v, u)?, None)
         };
-        BsdfSample::of_mixture(bsdf, wo, wi, self.pdf(v, bsdf, wo, wi))
+        BsdfSample::of_mixture(bsdf, wo, wi, drawn.as_ref(), self.pdf(v, bsdf, wo, wi))
     }
 
     fn pdf(&self, v: &GuidedVertex, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {

@@ -151,7 +151,7 @@ impl DirectionSampler for Guide<'_> {
         };
         let guide = &self.tree.leaves[*leaf as usize].sampling;
         let u_choice = rng.uniform();
-        let wi = if u_choice < self.alpha {
+        let (wi, drawn) = if u_choice < self.alpha {
             let (u, u_lobe) = (rng.uniform2(), rng.uniform());
             let s = bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)?;
             if s.delta {
@@ -162,11 +162,11 @@ impl DirectionSampler for Guide<'_> {
                     ..s
                 });
             }
-            s.wi
+            (s.wi, Some(s))
         } else {
-            frame.to_local(guide.sample(|| rng.uniform()))
+            (frame.to_local(guide.sample(|| rng.uniform())), None)
         };
-        BsdfSample::of_mixture(bsdf, wo, wi, self.pdf(v, bsdf, wo, wi))
+        BsdfSample::of_mixture(bsdf, wo, wi, drawn.as_ref(), self.pdf(v, bsdf, wo, wi))
     }
 
     fn pdf(&self, v: &Self::Vertex, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {

@@ -7,7 +7,7 @@ pub(super) fn column_major(v: &[f64]) -> DMat4 {
     DMat4::from_cols_slice(v)
 }
 
-fn find<'p>(params: &'p [Param], name: &str) -> Option<&'p Param> {
+pub(super) fn find<'p>(params: &'p [Param], name: &str) -> Option<&'p Param> {
     params.iter().find(|p| p.name == name)
 }
 
@@ -29,7 +29,7 @@ pub(super) fn check_known(d: &Directive, params: &[Param], known: &[&str]) -> Re
     }
 }
 
-fn numbers(d: &Directive, p: &Param) -> Result<Vec<f64>> {
+pub(super) fn numbers(d: &Directive, p: &Param) -> Result<Vec<f64>> {
     p.values
         .iter()
         .map(|v| match v {
@@ -80,7 +80,13 @@ fn triples(d: &Directive, params: &[Param], name: &str) -> Result<Option<Vec<Tri
 impl Translator<'_> {
     /// A colour parameter: `rgb`, `spectrum` (wavelength–value pairs), or a `texture` name
     /// (when `textures` allows); reflectances (`reflectance = true`) as Mitsuba converts them.
-    fn colour(&self, d: &Directive, params: &[Param], name: &str, reflectance: bool) -> Result<Option<Color>> {
+    pub(super) fn colour(
+        &self,
+        d: &Directive,
+        params: &[Param],
+        name: &str,
+        reflectance: bool,
+    ) -> Result<Option<Color>> {
         let Some(p) = find(params, name) else { return Ok(None) };
         match p.ty.as_str() {
             "rgb" => match &numbers(d, p)?[..] {
@@ -135,244 +141,6 @@ impl Translator<'_> {
             Some(Color::Texture(_)) => Err(d.err(format!("parameter {name}: a light's colour cannot be a texture"))),
             None => Ok(None),
         }
-    }
-
-    /// One material of pbrt-v4 as ours (module doc for the mappings).
-    pub(super) fn material(&mut self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
-        Ok(match kind {
-            "diffuse" => {
-                check_known(d, params, &["reflectance"])?;
-                MaterialDesc::Diffuse(desc::Diffuse {
-                    reflectance: self
-                        .colour(d, params, "reflectance", true)?
-                        .unwrap_or(Color::Rgb(Fixed([0.5; 3]))),
-                })
-            }
-            "diffusetransmission" => {
-                check_known(d, params, &["reflectance", "transmittance", "scale"])?;
-                let s = float_param(d, params, "scale")?.unwrap_or(1.0);
-                let rgb = |name: &str| -> Result<Triple> {
-                    match self.colour(d, params, name, true)? {
-                        None => Ok(Fixed([0.25 * s; 3])),
-                        Some(Color::Rgb(c)) => Ok(Fixed(c.0.map(|x| x * s))),
-                        Some(Color::Texture(_)) => Err(d.err(format!("{name}: a texture is not read here"))),
-                    }
-                };
-                MaterialDesc::DiffuseTransmission(desc::DiffuseTransmission {
-                    reflectance: rgb("reflectance")?,
-                    transmittance: rgb("transmittance")?,
-                })
-            }
-            "conductor" => {
-                check_known(
-                    d,
-                    params,
-                    &[
-                        "eta",
-                        "k",
-                        "reflectance",
-                        "roughness",
-                        "uroughness",
-                        "vroughness",
-                        "remaproughness",
-                    ],
-                )?;
-                let (material, eta, k) = self.conductor_ior(d, params)?;
-                let (au, av) = self.roughness(d, params)?;
-                if au.max(av) < 1e-3 {
-                    MaterialDesc::Conductor(desc::Conductor {
-                        material,
-                        eta,
-                        k,
-                        specular_reflectance: None,
-                    })
-                } else {
-                    MaterialDesc::RoughConductor(desc::RoughConductor {
-                        material,
-                        eta,
-                        k,
-                        specular_reflectance: None,
-                        distribution: Some("ggx".into()),
-                        alpha: None,
-                        alpha_u: Some(desc::ScalarDesc::Value(au)),
-                        alpha_v: Some(desc::ScalarDesc::Value(av)),
-                        sample_visible: Some(true),
-                    })
-                }
-            }
-            "dielectric" | "thindielectric" => {
-                check_known(
-                    d,
-                    params,
-                    &["eta", "roughness", "uroughness", "vroughness", "remaproughness"],
-                )?;
-                let eta = match find(params, "eta") {
-                    None => 1.5,
-                    Some(p) if p.ty == "float" => float_param(d, params, "eta")?.unwrap_or(1.5),
-                    Some(p) => return Err(d.err(format!("parameter \"{} eta\": expected a float", p.ty))),
-                };
-                let (au, av) = self.roughness(d, params)?;
-                if kind == "thindielectric" {
-                    MaterialDesc::ThinDielectric(desc::ThinDielectric {
-                        ior: eta,
-                        reflectance: Fixed([1.0; 3]),
-                        transmittance: Fixed([1.0; 3]),
-                    })
-                } else if au.max(av) < 1e-3 {
-                    MaterialDesc::Dielectric(desc::Dielectric { ior: eta })
-                } else {
-                    MaterialDesc::RoughDielectric(desc::RoughDielectric {
-                        ior: eta,
-                        specular_reflectance: None,
-                        specular_transmittance: None,
-                        distribution: Some("ggx".into()),
-                        alpha: None,
-                        alpha_u: Some(desc::ScalarDesc::Value(au)),
-                        alpha_v: Some(desc::ScalarDesc::Value(av)),
-                        sample_visible: Some(true),
-                    })
-                }
-            }
-            "mix" => {
-                check_known(d, params, &["materials", "amount"])?;
-                let Some(p) = find(params, "materials") else {
-                    return Err(d.err("expected \"string materials\" [\"a\" \"b\"]"));
-                };
-                let [Value::Str(a), Value::Str(b)] = &p.values[..] else {
-                    return Err(d.err("parameter materials: expected two material names"));
-                };
-                let named = |n: &str| {
-                    self.materials
-                        .get(&format!("named:{n}"))
-                        .cloned()
-                        .ok_or_else(|| d.err(format!("materials: no material named {n:?}")))
-                };
-                MaterialDesc::Blend(desc::Blend {
-                    weight: Some(desc::ScalarDesc::Value(
-                        float_param(d, params, "amount")?.unwrap_or(0.5),
-                    )),
-                    bsdfs: vec![named(a)?, named(b)?],
-                })
-            }
-            other => {
-                return Err(d.err(format!(
-                    "unsupported material {other:?} (diffuse, conductor, dielectric, thindielectric, \
-                     diffusetransmission, mix)"
-                )));
-            }
-        })
-    }
-
-    /// A conductor's index: a named metal (`metal-X-eta` and `metal-X-k`, both the same X), η
-    /// and k as `rgb`, `spectrum` pairs or `.spd` files (converted as Mitsuba converts
-    /// unbounded spectra), or pbrt-v4's `reflectance` r (η = 1, k = 2√r / √(1 − r), r ≤
-    /// 0.9999: the index whose normal-incidence Fresnel reflectance is r). Default: copper.
-    fn conductor_ior(
-        &mut self,
-        d: &Directive,
-        params: &[Param],
-    ) -> Result<(Option<String>, Option<Triple>, Option<Triple>)> {
-        if let Some(r) = self.colour(d, params, "reflectance", true)? {
-            if find(params, "eta").is_some() || find(params, "k").is_some() {
-                return Err(d.err("give reflectance or eta and k, not both"));
-            }
-            let Color::Rgb(r) = r else {
-                return Err(d.err("reflectance: a texture is not read for a conductor"));
-            };
-            let k = r.0.map(|r| {
-                let r = r.clamp(0.0, 0.9999);
-                2.0 * r.sqrt() / (1.0 - r).sqrt()
-            });
-            return Ok((None, Some(Fixed([1.0; 3])), Some(Fixed(k))));
-        }
-        let metal = |p: Option<&Param>, suffix: &str| -> Option<String> {
-            match p.map(|p| &p.values[..]) {
-                None => Some("Cu".into()),
-                Some([Value::Str(s)]) => s
-                    .strip_prefix("metal-")
-                    .and_then(|m| m.strip_suffix(suffix))
-                    .map(str::to_string),
-                _ => None,
-            }
-        };
-        let (pe, pk) = (find(params, "eta"), find(params, "k"));
-        if let (Some(a), Some(b)) = (metal(pe, "-eta"), metal(pk, "-k"))
-            && a == b
-        {
-            if crate::bsdf::ConductorIor::named(&a).is_none() {
-                return Err(d.err(format!(
-                    "metal {a:?}: expected one of {}",
-                    crate::bsdf::named_conductor_list()
-                )));
-            }
-            return Ok((Some(a), None, None));
-        }
-        let mut part = |p: Option<&Param>, suffix: &str| -> Result<Triple> {
-            let named = metal(p, suffix).and_then(|m| crate::bsdf::ConductorIor::named(&m));
-            match (named, p) {
-                (Some(ior), _) => {
-                    let v = if suffix == "-eta" { ior.eta } else { ior.k };
-                    Ok(Fixed(v.as_dvec3().to_array()))
-                }
-                (None, Some(p)) => self.unbounded(d, p),
-                (None, None) => unreachable!("an absent parameter is copper"),
-            }
-        };
-        Ok((None, Some(part(pe, "-eta")?), Some(part(pk, "-k")?)))
-    }
-
-    /// An unbounded spectrum (η, k) as RGB: `rgb`, `spectrum` pairs, or a `spectrum` file of
-    /// pairs (pbrt's `.spd`, relative to the scene; its bytes join the scene's hash).
-    fn unbounded(&mut self, d: &Directive, p: &Param) -> Result<Triple> {
-        let pairs: Vec<f64> = match (p.ty.as_str(), &p.values[..]) {
-            ("rgb", _) => {
-                let v = numbers(d, p)?;
-                let [r, g, b] = v[..] else {
-                    return Err(d.err(format!("parameter \"rgb {}\": expected 3 numbers", p.name)));
-                };
-                return Ok(Fixed([r, g, b]));
-            }
-            ("spectrum", [Value::Str(file)]) => {
-                let path = self.dir.join(file);
-                let bytes = crate::util::read_input(&path, "spectrum file", crate::util::MAX_TEXT_INPUT)
-                    .map_err(|e| d.err(format!("parameter \"spectrum {}\": {file}: {e} (named spectra other than metal-X-eta/-k are not known)", p.name)))?;
-                let text = String::from_utf8_lossy(&bytes).to_string();
-                self.files_read.push((path, bytes));
-                let mut v = Vec::new();
-                for line in text.lines() {
-                    for w in line.split('#').next().unwrap_or("").split_whitespace() {
-                        v.push(
-                            w.parse::<f64>()
-                                .map_err(|_| d.err(format!("{file}: {w:?} is not a number")))?,
-                        );
-                    }
-                }
-                v
-            }
-            ("spectrum", _) => numbers(d, p)?,
-            (ty, _) => return Err(d.err(format!("parameter \"{ty} {}\": expected rgb or spectrum", p.name))),
-        };
-        if pairs.len() < 4 || !pairs.len().is_multiple_of(2) || pairs.iter().any(|x| !x.is_finite()) {
-            return Err(d.err(format!("parameter {}: expected wavelength–value pairs", p.name)));
-        }
-        let points: Vec<(f64, f64)> = pairs.chunks(2).map(|c| (c[0], c[1])).collect();
-        Ok(Fixed(crate::spectrum::list_to_srgb(&points, false).0.to_array()))
-    }
-
-    /// (α_u, α_v) from `roughness` or `uroughness`/`vroughness` (default 0), remapped by
-    /// `remaproughness` (default true): α = √roughness.
-    fn roughness(&self, d: &Directive, params: &[Param]) -> Result<(f64, f64)> {
-        let r = float_param(d, params, "roughness")?.unwrap_or(0.0);
-        let u = float_param(d, params, "uroughness")?.unwrap_or(r);
-        let v = float_param(d, params, "vroughness")?.unwrap_or(r);
-        if u < 0.0 || v < 0.0 {
-            return Err(d.err("roughness: expected numbers ≥ 0"));
-        }
-        Ok(if bool_param(d, params, "remaproughness")?.unwrap_or(true) {
-            (u.sqrt(), v.sqrt())
-        } else {
-            (u, v)
-        })
     }
 
     /// `Texture "name" "spectrum"|"float" "checkerboard"|"imagemap" …`.
