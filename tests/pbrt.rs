@@ -274,7 +274,25 @@ fn what_is_not_read_is_refused_naming_the_line() {
     let dir = tempfile::tempdir().unwrap();
     for (extra, expect) in [
         ("Material \"hair\"", &["line 13", "Material", "hair"][..]),
-        ("ObjectBegin \"tree\"", &["line 13", "ObjectBegin", "not supported"]),
+        (
+            "MakeNamedMedium \"fog\"",
+            &["line 13", "MakeNamedMedium", "not supported"],
+        ),
+        ("ObjectInstance \"tree\"", &["line 13", "no object named"]),
+        ("ObjectBegin \"tree\"", &["ObjectBegin", "never ended"]),
+        (
+            "ObjectBegin \"a\"\nAreaLightSource \"diffuse\"\nShape \"sphere\"\nObjectEnd",
+            &["line 15", "area light", "ObjectBegin"],
+        ),
+        ("ObjectEnd", &["line 13", "no ObjectBegin"]),
+        (
+            "Shape \"loopsubdiv\" \"point3 P\" [0 0 0 1 0 0 0 1 0 -1 0 0 0 -1 0] \"integer indices\" [0 1 2 0 3 4]",
+            &["line 13", "loopsubdiv", "not a manifold at vertex 0"],
+        ),
+        (
+            "Shape \"loopsubdiv\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"integer indices\" [0 1 5]",
+            &["line 13", "indices", "[0, 3)"],
+        ),
         (
             "Shape \"sphere\" \"float phimax\" 180",
             &["line 13", "Shape", "partial"],
@@ -287,7 +305,11 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5]",
             &["line 13", "3 numbers"],
         ),
-        ("LightSource \"spot\"", &["line 13", "spot"]),
+        ("LightSource \"goniometric\"", &["line 13", "goniometric"]),
+        (
+            "LightSource \"spot\" \"float coneangle\" 30 \"float conedeltaangle\" 40",
+            &["line 13", "conedeltaangle"],
+        ),
         (
             "Shape \"sphere\" \"float radius\" 1 \"float radiuz\" 2",
             &["line 13", "radiuz"],
@@ -382,4 +404,107 @@ fn flat_bilinear_patches_are_their_two_triangles() {
     let curved = patch.replace("-1 1 0  1 1 0]", "-1 1 0  1 1 0.5]");
     let err = load(dir.path(), "c.pbrt", &curved).err().unwrap().to_string();
     assert_refused(&err, &["line 10", "bilinearmesh", "curved"]);
+}
+
+const LIGHT: &str = "LightSource \"point\" \"rgb I\" [1 1 1] \"point3 from\" [0 3 0]";
+
+/// Object instancing: the shapes of `ObjectBegin` … `ObjectEnd` are not in the scene until an
+/// `ObjectInstance` puts a copy there, with the transform at the instance applied after the one
+/// at the definition (pbrt-v4's world-from-instance); the scene equals the one with the copies
+/// written out.
+#[test]
+fn object_instances_are_their_shapes_where_pbrt_puts_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let object = "ObjectBegin \"pole\"\n  Translate 0 0.5 0\n  Shape \"trianglemesh\" \"point3 P\" [-0.1 -0.5 0  0.1 -0.5 0  0.1 0.5 0] \"integer indices\" [0 1 2]\nObjectEnd";
+    let instanced = load(
+        dir.path(),
+        "i.pbrt",
+        &lit_floor(&format!(
+            "{LIGHT}\n{object}\nAttributeBegin\n  Translate 2 0 0\n  ObjectInstance \"pole\"\nAttributeEnd\nAttributeBegin\n  Translate -2 0 1\n  Scale 2 2 2\n  ObjectInstance \"pole\"\nAttributeEnd"
+        )),
+    )
+    .unwrap();
+    let written = load(
+        dir.path(),
+        "w.pbrt",
+        &lit_floor(&format!(
+            "{LIGHT}\nAttributeBegin\n  Translate 2 0.5 0\n  Shape \"trianglemesh\" \"point3 P\" [-0.1 -0.5 0  0.1 -0.5 0  0.1 0.5 0] \"integer indices\" [0 1 2]\nAttributeEnd\n\
+             AttributeBegin\n  Translate -2 0 1\n  Scale 2 2 2\n  Translate 0 0.5 0\n  Shape \"trianglemesh\" \"point3 P\" [-0.1 -0.5 0  0.1 -0.5 0  0.1 0.5 0] \"integer indices\" [0 1 2]\nAttributeEnd",
+        )),
+    )
+    .unwrap();
+    assert_eq!(instanced.primitives.len(), written.primitives.len());
+    for (a, b) in instanced.primitives.iter().zip(&written.primitives) {
+        assert_eq!(format!("{a:?}"), format!("{b:?}"));
+    }
+    // Defined but never instanced: nothing but the floor.
+    let unused = load(dir.path(), "u.pbrt", &lit_floor(&format!("{LIGHT}\n{object}"))).unwrap();
+    assert_eq!(unused.primitives.len(), 2);
+}
+
+/// `loopsubdiv`: a closed control mesh (an octahedron) refined `levels` times into 8 · 4^levels
+/// triangles on its limit surface, the top vertex where Loop's limit mask puts it.
+#[test]
+fn loop_subdivision_surfaces_are_refined_onto_their_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = load(
+        dir.path(),
+        "l.pbrt",
+        &lit_floor(&format!(
+            "{LIGHT}\nAttributeBegin\nTranslate 0 1 0\nShape \"loopsubdiv\" \"integer levels\" 2 \"point3 P\" [1 0 0 -1 0 0 0 1 0 0 -1 0 0 0 1 0 0 -1]\n\
+             \"integer indices\" [0 2 4 2 1 4 1 3 4 3 0 4 2 0 5 1 2 5 3 1 5 0 3 5]\nAttributeEnd",
+        )),
+    )
+    .unwrap();
+    let triangles = s
+        .primitives
+        .iter()
+        .filter(|p| matches!(p, photon_bench::geometry::Primitive::Triangle { .. }))
+        .count();
+    assert_eq!(triangles, 2 + 8 * 16);
+    // The limit of an octahedron's vertex (valence 4: γ = 1/8) is halfway to the centre, at
+    // any level: (1 − 4γ) v + γ Σ ring = v / 2 for a ring summing to zero.
+    let (lo, hi) = s.bounds();
+    let r = (hi.y - 1.0) as f64;
+    assert!((r - 0.5).abs() < 1e-6, "{lo} {hi}");
+    let hit = s
+        .intersect(&photon_bench::geometry::Ray::new(
+            glam::Vec3::new(0.0, 3.0, 0.0),
+            -glam::Vec3::Y,
+        ))
+        .unwrap();
+    assert!(((hit.p.y - 1.0) as f64 - r).abs() < 1e-4, "{}", hit.p);
+}
+
+/// pbrt-v4's spot: from `from` toward `to` through the transform, full intensity inside
+/// coneangle − conedeltaangle, smoothstep(cos coneangle, cos beam, cos θ) out to coneangle,
+/// dark beyond; its power 2π I ((1 − cos θ_b) + (cos θ_b − cos θ_c)/2).
+#[test]
+fn pbrt_spots_fall_off_as_pbrt_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = load(
+        dir.path(),
+        "s.pbrt",
+        &lit_floor(
+            "AttributeBegin\nTranslate 0 2 0\nLightSource \"spot\" \"rgb I\" [2 2 2] \"point3 from\" [0 0 0] \"point3 to\" [0 -1 0] \"float coneangle\" 30 \"float conedeltaangle\" 10\nAttributeEnd",
+        ),
+    )
+    .unwrap();
+    let light = &s.delta_lights[0];
+    let at = |deg: f64| {
+        let x = 2.0 * deg.to_radians().tan();
+        let inc = light.illuminate(glam::Vec3::new(x as f32, 0.0, 0.0));
+        inc.map_or(0.0, |i| (i.li.x * i.dist * i.dist / 2.0) as f64)
+    };
+    assert!((at(0.0) - 1.0).abs() < 1e-5 && (at(19.0) - 1.0).abs() < 1e-5);
+    assert!(at(30.5) == 0.0);
+    let (c, b, x) = (
+        30f64.to_radians().cos(),
+        20f64.to_radians().cos(),
+        25f64.to_radians().cos(),
+    );
+    let t = (x - c) / (b - c);
+    assert!((at(25.0) - t * t * (3.0 - 2.0 * t)).abs() < 1e-4, "{}", at(25.0));
+    let power = 2.0 * std::f64::consts::TAU * ((1.0 - b) + 0.5 * (b - c));
+    assert!((light.power(1.0).x as f64 / power - 1.0).abs() < 1e-5);
 }

@@ -10,6 +10,9 @@
 //!   (θ_c − θ)/(θ_c − θ_b) down to 0 at the cutoff θ_c), so the power is
 //!   I ∫ falloff dω = 2π I (1 − (sin θ_c − sin θ_b)/(θ_c − θ_b)) (the ramp integrated by parts;
 //!   2π I (1 − cos θ_c) when θ_b = θ_c).
+//! - pbrt-v4's `spot` (`Spot::smoothstep`): I times smoothstep(cos θ_c, cos θ_b, cos θ), a
+//!   cubic ramp in cos θ rather than Mitsuba's linear one in θ, so the power is
+//!   2π I ((1 − cos θ_b) + (cos θ_b − cos θ_c)/2) (the smoothstep integrates to ½ over its ramp).
 //! - `directional`: irradiance E [W/m²] on a surface facing the light, arriving along one
 //!   direction; the power that reaches a scene of bounding radius R is π R² E.
 //!
@@ -40,8 +43,8 @@ pub enum DeltaLight {
     },
 }
 
-/// A spot light: intensity I along its unit `axis`, falling off linearly in angle between the
-/// beam and the cutoff half-angles.
+/// A spot light: intensity I along its unit `axis`, falling off between the beam and the cutoff
+/// half-angles, linearly in angle (Mitsuba) or by a smoothstep in cos θ (pbrt-v4).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spot {
     pub position: Vec3,
@@ -54,6 +57,8 @@ pub struct Spot {
     cos_beam: f32,
     /// 1 / (θ_c − θ_b), infinite when the beam fills the cone (the ramp is then empty).
     inv_transition: f32,
+    /// pbrt-v4's falloff, smoothstep(cos θ_c, cos θ_b, cos θ), instead of Mitsuba's.
+    smoothstep: bool,
 }
 
 impl Spot {
@@ -67,7 +72,22 @@ impl Spot {
             cos_cutoff: cutoff.cos(),
             cos_beam: beam.cos(),
             inv_transition: 1.0 / (cutoff - beam),
+            smoothstep: false,
         }
+    }
+
+    /// pbrt-v4's spot: half-angles θ_c (`coneangle`) and θ_b (`coneangle − conedeltaangle`),
+    /// smoothstep falloff in cos θ between them.
+    pub fn smoothstep(position: Vec3, axis: Vec3, intensity: Vec3, cutoff: f32, beam: f32) -> Self {
+        Self {
+            smoothstep: true,
+            ..Self::new(position, axis, intensity, cutoff, beam)
+        }
+    }
+
+    /// Whether the falloff is pbrt-v4's smoothstep.
+    pub fn is_smoothstep(&self) -> bool {
+        self.smoothstep
     }
 
     /// The falloff factor in [0, 1] toward unit world direction `w` (Mitsuba's `falloff_curve`).
@@ -78,6 +98,9 @@ impl Spot {
             0.0
         } else if cos_theta >= self.cos_beam {
             1.0
+        } else if self.smoothstep {
+            let t = ((cos_theta - self.cos_cutoff) / (self.cos_beam - self.cos_cutoff)).clamp(0.0, 1.0);
+            t * t * (3.0 - 2.0 * t)
         } else {
             ((self.cutoff - cos_theta.clamp(-1.0, 1.0).acos()) * self.inv_transition).clamp(0.0, 1.0)
         }
@@ -86,7 +109,10 @@ impl Spot {
     /// ∫ falloff dω over the sphere (module doc).
     pub fn falloff_solid_angle(&self) -> f32 {
         let (c, b) = (self.cutoff as f64, self.cos_beam.clamp(-1.0, 1.0).acos() as f64);
-        let integral = if c - b > 1e-6 {
+        let integral = if self.smoothstep {
+            let (cos_c, cos_b) = (c.cos(), b.cos());
+            TAU as f64 * ((1.0 - cos_b) + 0.5 * (cos_b - cos_c))
+        } else if c - b > 1e-6 {
             TAU as f64 * (1.0 - (c.sin() - b.sin()) / (c - b))
         } else {
             TAU as f64 * (1.0 - c.cos())
@@ -253,11 +279,18 @@ mod tests {
         )
     }
 
-    /// ∫ falloff dω in closed form against a midpoint quadrature in θ.
+    /// ∫ falloff dω in closed form against a midpoint quadrature in θ, for Mitsuba's and
+    /// pbrt-v4's falloffs.
     #[test]
     fn spot_falloff_integral_matches_quadrature() {
-        for (c, b) in [(20.0, 15.0), (60.0, 10.0), (30.0, 30.0), (80.0, 1.0)] {
-            let s = spot(c, b);
+        let cases = [(20.0, 15.0), (60.0, 10.0), (30.0, 30.0), (80.0, 1.0)];
+        for (c, b, pbrt) in cases.iter().flat_map(|&(c, b)| [(c, b, false), (c, b, true)]) {
+            let s = if pbrt {
+                let m = spot(c, b);
+                Spot::smoothstep(m.position, m.axis, m.intensity, m.cutoff, m.cos_beam.acos())
+            } else {
+                spot(c, b)
+            };
             let n = 200_000;
             let dtheta = std::f64::consts::PI / n as f64;
             let frame = Frame::from_normal(s.axis);
@@ -271,7 +304,7 @@ mod tests {
             let closed = s.falloff_solid_angle() as f64;
             assert!(
                 (closed / quad - 1.0).abs() < 1e-3,
-                "cutoff {c} beam {b}: {closed} vs {quad}"
+                "cutoff {c} beam {b}, pbrt's falloff {pbrt}: {closed} vs {quad}"
             );
         }
     }
@@ -286,6 +319,7 @@ mod tests {
                 intensity: Vec3::new(1.0, 2.0, 3.0),
             },
             DeltaLight::Spot(spot(40.0, 25.0)),
+            DeltaLight::Spot(Spot::smoothstep(Vec3::ZERO, Vec3::Y, Vec3::ONE, 0.6, 0.3)),
             DeltaLight::Directional {
                 direction: Vec3::new(0.0, -1.0, 0.0),
                 irradiance: Vec3::splat(2.0),

@@ -308,7 +308,14 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             );
         }
     }
-    for l in &desc.lights {
+    for (i, l) in desc.lights.iter().enumerate() {
+        if let desc::LightDesc::Spot(s) = l
+            && s.falloff.as_deref() == Some("smoothstep")
+        {
+            return Err(Error::new(format!(
+                "{file}: lights[{i}].falloff: pbrt-v4's smoothstep spot has no Mitsuba 3 equivalent"
+            )));
+        }
         x.push_str(&delta_light_xml(l));
     }
     let _ = writeln!(x, "</scene>");

@@ -196,6 +196,8 @@
 //! intensity = [10, 10, 10]          # W/sr on the axis
 //! cutoff_angle = 30                 # optional: dark beyond this half-angle (degrees), default 20
 //! beam_width = 20                   # optional: full intensity inside it, default 3/4 of the cutoff
+//! falloff = "linear"                # optional: Mitsuba's ramp linear in angle (default), or
+//!                                   # "smoothstep": pbrt-v4's, smooth in cos θ
 //! [[lights]]
 //! type = "directional"
 //! direction = [-0.2, -1, 0.1]       # where the light travels
@@ -333,8 +335,8 @@ pub struct PointLightDesc {
     pub intensity: Triple,
 }
 
-/// A spot: radiant intensity along its axis, a linear falloff in angle from `beam_width` to
-/// `cutoff_angle` (half-angles in degrees).
+/// A spot: radiant intensity along its axis, falling off from `beam_width` to `cutoff_angle`
+/// (half-angles in degrees) as `falloff` says.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SpotLightDesc {
@@ -348,6 +350,9 @@ pub struct SpotLightDesc {
     pub cutoff_angle: Option<f64>,
     /// Default three quarters of the cutoff, as Mitsuba.
     pub beam_width: Option<f64>,
+    /// "linear" (default): Mitsuba's ramp, linear in angle; "smoothstep": pbrt-v4's,
+    /// smoothstep(cos cutoff, cos beam, cos θ).
+    pub falloff: Option<String>,
 }
 
 /// Parallel light travelling along `direction`, with irradiance [W/m²] on a surface facing it.

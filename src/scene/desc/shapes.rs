@@ -17,6 +17,21 @@ pub enum ShapeDesc {
     Triangles(Triangles),
 }
 
+impl ShapeDesc {
+    /// The shape's transform, whatever its kind.
+    pub fn transform_mut(&mut self) -> &mut Option<TransformDesc> {
+        match self {
+            ShapeDesc::Quad(s) => &mut s.transform,
+            ShapeDesc::Box(s) => &mut s.transform,
+            ShapeDesc::Sphere(s) => &mut s.transform,
+            ShapeDesc::Mesh(s) => &mut s.transform,
+            ShapeDesc::Disk(s) => &mut s.transform,
+            ShapeDesc::Cylinder(s) => &mut s.transform,
+            ShapeDesc::Triangles(s) => &mut s.transform,
+        }
+    }
+}
+
 /// A triangle mesh given in the file itself (pbrt's `trianglemesh`): `positions`, and
 /// `indices` in threes (optional for a single triangle); optional per-vertex `normals` (they
 /// decide the front side, as a mesh file's do) and texture coordinates `uv`.

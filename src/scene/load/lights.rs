@@ -78,7 +78,17 @@ pub(super) fn delta_light(ctx: &Ctx, i: usize, l: &LightDesc) -> Result<DeltaLig
                     ),
                 ));
             }
-            DeltaLight::Spot(Spot::new(
+            let make = match s.falloff.as_deref() {
+                None | Some("linear") => Spot::new,
+                Some("smoothstep") => Spot::smoothstep,
+                Some(other) => {
+                    return Err(ctx.err(
+                        &field("falloff"),
+                        format!("expected \"linear\" or \"smoothstep\", got {other:?}"),
+                    ));
+                }
+            };
+            DeltaLight::Spot(make(
                 position.as_vec3(),
                 axis,
                 power("intensity", s.intensity)?,

@@ -113,6 +113,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     intensity: self.unbounded_colour(&mut o, "intensity")?.unwrap_or(Fixed([1.0; 3])),
                     cutoff_angle: self.float(&mut o, "cutoff_angle")?,
                     beam_width: self.float(&mut o, "beam_width")?,
+                    falloff: None,
                 })
             }
             _ => {

@@ -28,6 +28,7 @@
 //!   `cylinder` (whole ones).
 //! - `AreaLightSource` `diffuse`; `LightSource` `point`, `distant`, `infinite` (constant `L`).
 
+mod loop_subdiv;
 mod syntax;
 mod translate;
 

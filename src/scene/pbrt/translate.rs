@@ -53,6 +53,10 @@ pub struct Translator<'a> {
     anonymous: usize,
     shapes: Vec<ShapeDesc>,
     labels: Vec<String>,
+    /// Objects of `ObjectBegin` … `ObjectEnd`: their shapes (transformed as defined) and labels.
+    objects: BTreeMap<String, Vec<(ShapeDesc, String)>>,
+    /// The object being defined, if any: shapes go there instead of into the scene.
+    defining: Option<String>,
     lights: Vec<desc::LightDesc>,
     environment: Option<desc::EnvironmentDesc>,
     warnings: Vec<String>,
@@ -83,6 +87,8 @@ impl<'a> Translator<'a> {
             anonymous: 0,
             shapes: Vec::new(),
             labels: Vec::new(),
+            objects: BTreeMap::new(),
+            defining: None,
             lights: Vec::new(),
             environment: None,
             warnings: Vec::new(),
@@ -222,12 +228,56 @@ impl<'a> Translator<'a> {
                 });
             }
             "LightSource" => self.light(d)?,
+            "ObjectBegin" => {
+                let n = name()?;
+                if let Some(open) = &self.defining {
+                    return Err(d.err(format!("object {open:?} is still open (ObjectEnd first)")));
+                }
+                if self.objects.contains_key(&n) {
+                    return Err(d.err(format!("object {n:?} is defined twice")));
+                }
+                // pbrt's ObjectBegin saves the attributes, as AttributeBegin does.
+                self.stack.push(self.state.clone());
+                self.objects.insert(n.clone(), Vec::new());
+                self.defining = Some(n);
+            }
+            "ObjectEnd" => {
+                if self.defining.take().is_none() {
+                    return Err(d.err("no ObjectBegin to end"));
+                }
+                self.state = self.stack.pop().ok_or_else(|| d.err("no ObjectBegin to end"))?;
+            }
+            "ObjectInstance" => self.instance(d, &name()?)?,
             other => {
                 return Err(d.err(format!(
-                    "{other} is not supported (object instancing, media, animated transforms and \
-                     named attributes are not read yet)"
+                    "{other} is not supported (media, animated transforms and named attributes are \
+                     not read yet)"
                 )));
             }
+        }
+        Ok(())
+    }
+
+    /// `ObjectInstance`: a copy of every shape of the object, the current transform applied
+    /// after the one each had where it was defined (pbrt-v4's world-from-instance). Instances
+    /// are flattened: a copy per instance, exact but without pbrt's memory savings.
+    fn instance(&mut self, d: &Directive, n: &str) -> Result<()> {
+        if self.defining.is_some() {
+            return Err(d.err("ObjectInstance inside ObjectBegin (nested instancing) is not read"));
+        }
+        let shapes = self
+            .objects
+            .get(n)
+            .ok_or_else(|| d.err(format!("no object named {n:?} (ObjectBegin first)")))?;
+        if self.swaps_handedness() {
+            return Err(d.err("an ObjectInstance under a mirroring transform is not read yet"));
+        }
+        for (shape, label) in shapes {
+            let mut shape = shape.clone();
+            let t = shape.transform_mut().get_or_insert_with(|| TransformDesc(Vec::new()));
+            t.0.extend(TransformDesc::from_matrix(self.state.ctm).0);
+            self.shapes.push(shape);
+            self.labels.push(format!("{}, ObjectInstance {n:?} of {label}", d.at));
         }
         Ok(())
     }
@@ -371,6 +421,12 @@ impl<'a> Translator<'a> {
             ));
             desc::FilterDesc::Gaussian(desc::GaussianFilterDesc { stddev: None })
         }));
+        if let Some(open) = &self.defining {
+            return Err(Error::new(format!(
+                "{}: ObjectBegin {open:?} is never ended",
+                self.file
+            )));
+        }
         if !self.stack.is_empty() {
             return Err(Error::new(format!("{}: an AttributeBegin is never ended", self.file)));
         }

@@ -291,6 +291,10 @@ impl Translator<'_> {
                     emission,
                 })
             }
+            "loopsubdiv" => {
+                check_known(d, params, &["P", "indices", "levels"])?;
+                self.loop_subdivision(d, params, material, transform, emission)?
+            }
             "bilinearmesh" => {
                 check_known(d, params, &["P", "indices", "uv"])?;
                 self.bilinear_patches(d, params, material, transform, emission)?
@@ -369,8 +373,19 @@ impl Translator<'_> {
                 )));
             }
         };
+        let label = format!("{}, Shape \"{kind}\"", d.at);
+        if let Some(object) = &self.defining {
+            if self.state.area_light.is_some() {
+                return Err(d.err("an area light inside ObjectBegin is not supported (pbrt-v4 refuses it too)"));
+            }
+            self.objects
+                .get_mut(object)
+                .expect("an open object is registered")
+                .push((shape, label));
+            return Ok(());
+        }
         self.shapes.push(shape);
-        self.labels.push(format!("{}, Shape \"{kind}\"", d.at));
+        self.labels.push(label);
         Ok(())
     }
 
@@ -379,6 +394,56 @@ impl Translator<'_> {
     /// (p10 − p00) × (p01 − p00) and its (u, v) ((0, 0) … (1, 1) unless `uv` is given); a curved
     /// patch (p11 off the plane of the other three) is refused, as a bilinear surface is not
     /// rendered yet. Turned around as triangles are.
+    /// pbrt's `loopsubdiv`: the control mesh refined `levels` times (default 3) and moved to
+    /// the limit surface, with its normals ([`super::super::loop_subdiv`]).
+    fn loop_subdivision(
+        &self,
+        d: &Directive,
+        params: &[Param],
+        material: String,
+        transform: Option<TransformDesc>,
+        emission: Option<desc::EmissionDesc>,
+    ) -> Result<ShapeDesc> {
+        let positions = triples(d, params, "P")?.ok_or_else(|| d.err("expected \"point3 P\""))?;
+        let indices = match find(params, "indices") {
+            Some(p) => numbers(d, p)?,
+            None => return Err(d.err("expected \"integer indices\"")),
+        };
+        if indices.len() % 3 != 0
+            || indices
+                .iter()
+                .any(|&i| i.fract() != 0.0 || i < 0.0 || i >= positions.len() as f64)
+        {
+            return Err(d.err(format!(
+                "indices: expected triples of integers in [0, {}), one triangle each",
+                positions.len()
+            )));
+        }
+        let levels = match find(params, "levels") {
+            None => 3,
+            Some(p) => match numbers(d, p)?[..] {
+                [l] if l.fract() == 0.0 && (0.0..=6.0).contains(&l) => l as u32,
+                _ => return Err(d.err("levels: expected one integer in [0, 6]")),
+            },
+        };
+        let p: Vec<DVec3> = positions.iter().map(|t| DVec3::from_array(t.0)).collect();
+        let tris: Vec<[u32; 3]> = indices
+            .chunks(3)
+            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
+            .collect();
+        let s = super::super::loop_subdiv::loop_subdivide(&p, &tris, levels)
+            .map_err(|e| d.err(format!("loopsubdiv: {e}")))?;
+        Ok(ShapeDesc::Triangles(desc::Triangles {
+            material,
+            positions: s.positions.iter().map(|q| Fixed(q.to_array())).collect(),
+            indices: Some(s.triangles.iter().flatten().map(|&i| i64::from(i)).collect()),
+            normals: Some(s.normals.iter().map(|q| Fixed(q.to_array())).collect()),
+            uv: None,
+            transform,
+            emission,
+        }))
+    }
+
     fn bilinear_patches(
         &self,
         d: &Directive,
@@ -509,6 +574,38 @@ impl Translator<'_> {
                     intensity: Fixed(i.map(|c| c * scale)),
                 }));
             }
+            "spot" => {
+                check_known(
+                    d,
+                    &d.params,
+                    &["I", "scale", "from", "to", "coneangle", "conedeltaangle"],
+                )?;
+                let i = self.light_colour(d, "I")?.unwrap_or([1.0; 3]);
+                let (from, to) = (point3("from", DVec3::ZERO)?, point3("to", DVec3::Z)?);
+                let (position, target) = (self.point(from), self.point(to));
+                if (target - position).length() < 1e-12 {
+                    return Err(d.err("from and to coincide"));
+                }
+                let cone = float_param(d, &d.params, "coneangle")?.unwrap_or(30.0);
+                let delta = float_param(d, &d.params, "conedeltaangle")?.unwrap_or(5.0);
+                if !(cone > 0.0 && cone <= 180.0 && (0.0..=cone).contains(&delta)) {
+                    return Err(d.err(format!(
+                        "coneangle {cone}, conedeltaangle {delta}: expected 0 < coneangle ≤ 180 and 0 ≤ conedeltaangle ≤ coneangle"
+                    )));
+                }
+                // pbrt's beam is coneangle − conedeltaangle; a zero-width beam is ours as the
+                // smallest positive one (the falloff reaches 1 only on the axis there).
+                let beam = (cone - delta).max(1e-6 * cone);
+                self.lights.push(desc::LightDesc::Spot(desc::SpotLightDesc {
+                    position: Fixed(position.to_array()),
+                    target: Some(Fixed(target.to_array())),
+                    direction: None,
+                    intensity: Fixed(i.map(|c| c * scale)),
+                    cutoff_angle: Some(cone),
+                    beam_width: Some(beam),
+                    falloff: Some("smoothstep".into()),
+                }));
+            }
             "distant" => {
                 check_known(d, &d.params, &["L", "scale", "from", "to"])?;
                 let l = self.light_colour(d, "L")?.unwrap_or([1.0; 3]);
@@ -535,8 +632,8 @@ impl Translator<'_> {
             }
             other => {
                 return Err(d.err(format!(
-                    "unsupported light {other:?} (point, distant, infinite with L; pbrt's spot falloff \
-                     and equal-area environment maps are not read yet)"
+                    "unsupported light {other:?} (point, spot, distant, infinite with L; equal-area \
+                     environment maps are not read yet)"
                 )));
             }
         }
