@@ -508,3 +508,48 @@ fn pbrt_spots_fall_off_as_pbrt_says() {
     let power = 2.0 * std::f64::consts::TAU * ((1.0 - b) + 0.5 * (b - c));
     assert!((light.power(1.0).x as f64 / power - 1.0).abs() < 1e-5);
 }
+
+/// pbrt-v4's image `infinite` light: a square equal-area map, turned by the transform, read by
+/// nearest texel; a uniform white map scaled by s renders as the constant sky of radiance s,
+/// and a single bright texel lights the direction pbrt's mapping gives it.
+#[test]
+fn equal_area_environment_maps_are_read_as_pbrt_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 8u32;
+    image::RgbImage::from_pixel(n, n, image::Rgb([255, 255, 255]))
+        .save(dir.path().join("white.png"))
+        .unwrap();
+    let mut spot = image::RgbImage::from_pixel(n, n, image::Rgb([0, 0, 0]));
+    spot.put_pixel(5, 2, image::Rgb([255, 255, 255]));
+    spot.save(dir.path().join("spot.png")).unwrap();
+    let sky = |light: &str| load(dir.path(), "e.pbrt", &lit_floor(light)).unwrap();
+    let mean = |s: &Scene| agreement::image_mean(s, "path", "max_depth = 3", 64);
+    let map = sky("LightSource \"infinite\" \"string filename\" \"white.png\" \"float scale\" 0.3");
+    let constant = sky("LightSource \"infinite\" \"rgb L\" [0.3 0.3 0.3]");
+    let (a, b) = (mean(&map), mean(&constant));
+    assert!(
+        (a.0 - b.0).abs() < 4.0 * (a.1 * a.1 + b.1 * b.1).sqrt(),
+        "{a:?} vs {b:?}"
+    );
+
+    let turned =
+        sky("AttributeBegin\nRotate 90 1 0 0\nLightSource \"infinite\" \"string filename\" \"spot.png\"\nAttributeEnd");
+    let env = turned.environment.as_ref().unwrap();
+    let centre = glam::Vec2::new(5.5, 2.5) / n as f32;
+    let local = photon_bench::light::equal_area::square_to_sphere(centre);
+    let world = glam::Quat::from_rotation_x(90f32.to_radians()) * local;
+    assert!((env.le(world) - glam::Vec3::ONE).length() < 1e-6, "{}", env.le(world));
+    assert_eq!(env.le(local), glam::Vec3::ZERO, "the map is turned");
+    // Its sampling finds the texel: every sample lands there.
+    let s = env.sample(glam::Vec2::new(0.3, 0.7)).unwrap();
+    assert!(s.wi.dot(world) > 0.8 && (s.le - glam::Vec3::ONE).length() < 1e-6);
+    let err = load(
+        dir.path(),
+        "bad.pbrt",
+        &lit_floor("LightSource \"infinite\" \"string filename\" \"white.png\" \"string portal\" \"x\""),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert_refused(&err, &["line 13", "portal"]);
+}

@@ -1,5 +1,6 @@
 //! Light from infinitely far away: Mitsuba 3's `constant` emitter (the same radiance from every
-//! direction) and `envmap` (a latitude–longitude image), importance-sampled.
+//! direction) and `envmap` (a latitude–longitude image), and pbrt-v4's square equal-area images
+//! ([`super::equal_area`]), importance-sampled.
 //!
 //! Conventions, as Mitsuba 3.9's `envmap` in its RGB variants: a world direction ω toward the
 //! environment is turned into the map's frame by the inverse of `to_world` (a rotation here),
@@ -43,6 +44,8 @@ pub struct EnvMap {
 pub enum Radiance {
     Constant(Vec3),
     Map(EnvMap),
+    /// pbrt-v4's equal-area square image, in its own frame (+z its centre).
+    EqualArea(super::equal_area::EqualAreaMap),
 }
 
 /// Light arriving from infinitely far away.
@@ -207,8 +210,13 @@ impl Environment {
 
     /// An environment map turned by `local_to_world` (a rotation) and scaled.
     pub fn map(map: EnvMap, local_to_world: Mat3, scale: f32) -> Self {
+        Self::of(Radiance::Map(map), local_to_world, scale)
+    }
+
+    /// Any radiance turned by `local_to_world` (a rotation) and scaled.
+    pub fn of(radiance: Radiance, local_to_world: Mat3, scale: f32) -> Self {
         Self {
-            radiance: Radiance::Map(map),
+            radiance,
             scale,
             world_to_local: local_to_world.transpose(),
             local_to_world,
@@ -221,6 +229,7 @@ impl Environment {
         match &self.radiance {
             Radiance::Constant(l) => *l * self.scale,
             Radiance::Map(m) => m.eval(direction_to_uv(self.world_to_local * w)) * self.scale,
+            Radiance::EqualArea(m) => m.eval(self.world_to_local * w) * self.scale,
         }
     }
 
@@ -255,6 +264,17 @@ impl Environment {
                     pdf_w,
                 })
             }
+            Radiance::EqualArea(m) => {
+                let (d, _) = m.sample(u);
+                let wi = (self.local_to_world * d).normalize();
+                let local = self.world_to_local * wi;
+                let pdf_w = m.pdf(local);
+                (pdf_w > 0.0).then(|| EnvSample {
+                    wi,
+                    le: m.eval(local) * self.scale,
+                    pdf_w,
+                })
+            }
         }
     }
 
@@ -267,6 +287,7 @@ impl Environment {
                 let d = self.world_to_local * w;
                 m.pdf_w(d, direction_to_uv(d))
             }
+            Radiance::EqualArea(m) => m.pdf(self.world_to_local * w),
         }
     }
 
@@ -275,6 +296,7 @@ impl Environment {
         match &self.radiance {
             Radiance::Constant(l) => *l * self.scale,
             Radiance::Map(m) => m.mean() * self.scale,
+            Radiance::EqualArea(m) => m.mean() * self.scale,
         }
     }
 

@@ -17,6 +17,7 @@
 
 pub mod delta;
 pub mod environment;
+pub mod equal_area;
 pub mod sphere_cone;
 
 #[cfg(test)]

@@ -296,6 +296,11 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
                 nums(&c.radiance.0)
             );
         }
+        Some(EnvironmentDesc::Envmap(m)) if m.mapping.as_deref() == Some("equal_area") => {
+            return Err(Error::new(format!(
+                "{file}: environment.mapping: pbrt-v4's equal-area map has no Mitsuba 3 equivalent"
+            )));
+        }
         Some(EnvironmentDesc::Envmap(m)) => {
             let t = shape_transform(&file, "environment", m.transform.as_ref())?;
             let _ = writeln!(

@@ -183,6 +183,8 @@
 //! file = "textures/sky.exr"         # OpenEXR (linear), PNG or JPEG (sRGB); relative to here
 //! scale = 1.0                       # optional, default 1
 //! transform = { rotate_y = 90 }     # optional; rotations only
+//! mapping = "latlong"               # optional: Mitsuba's latitude–longitude (default), or
+//!                                   # "equal_area": pbrt-v4's square octahedral map
 //!
 //! # Lights that are not shapes (optional, any number): Mitsuba's point, spot and directional.
 //! [[lights]]
@@ -386,8 +388,12 @@ pub struct EnvmapDesc {
     pub file: String,
     /// Multiplies the radiance (default 1).
     pub scale: Option<f64>,
-    /// A rotation of the map (its +y is the zenith, u = 0 looks down −z).
+    /// A rotation of the map (its +y is the zenith, u = 0 looks down −z; an equal-area map's
+    /// centre is its +z).
     pub transform: Option<TransformDesc>,
+    /// "latlong" (default, Mitsuba's `envmap`) or "equal_area": pbrt-v4's square image over
+    /// the sphere by the equal-area octahedral mapping, read by nearest texel.
+    pub mapping: Option<String>,
 }
 
 /// A pinhole camera.

@@ -4,7 +4,8 @@
 use super::mesh::read_regular_file;
 use super::*;
 use crate::error::Result;
-use crate::light::environment::{EnvMap, Environment};
+use crate::light::environment::{EnvMap, Environment, Radiance};
+use crate::light::equal_area::EqualAreaMap;
 use crate::scene::desc::EnvironmentDesc;
 use crate::texture::decode_image;
 use glam::{DMat3, Mat3};
@@ -66,18 +67,42 @@ pub(super) fn environment(
                     ),
                 ));
             }
-            if h < 2 {
-                return Err(ctx.err(
-                    "environment.file",
-                    format!("{shown}: expected at least 2 rows of texels, got {h}"),
-                ));
-            }
-            let map = EnvMap::new(w, h, texels.into())
-                .ok_or_else(|| ctx.err("environment.file", format!("{shown}: every texel is black")))?;
+            let radiance = match m.mapping.as_deref() {
+                None | Some("latlong") => {
+                    if h < 2 {
+                        return Err(ctx.err(
+                            "environment.file",
+                            format!("{shown}: expected at least 2 rows of texels, got {h}"),
+                        ));
+                    }
+                    Radiance::Map(
+                        EnvMap::new(w, h, texels.into())
+                            .ok_or_else(|| ctx.err("environment.file", format!("{shown}: every texel is black")))?,
+                    )
+                }
+                Some("equal_area") => {
+                    if w != h {
+                        return Err(ctx.err(
+                            "environment.file",
+                            format!("{shown}: an equal-area map is square, got {w} × {h} texels"),
+                        ));
+                    }
+                    Radiance::EqualArea(
+                        EqualAreaMap::new(w, h, texels.into())
+                            .ok_or_else(|| ctx.err("environment.file", format!("{shown}: every texel is black")))?,
+                    )
+                }
+                Some(other) => {
+                    return Err(ctx.err(
+                        "environment.mapping",
+                        format!("expected \"latlong\" or \"equal_area\", got {other:?}"),
+                    ));
+                }
+            };
             hashed.push(bytes);
             files_read.push(path);
             let local_to_world: Mat3 = linear.as_mat3();
-            Ok(Environment::map(map, local_to_world, scale as f32))
+            Ok(Environment::of(radiance, local_to_world, scale as f32))
         }
     }
 }

@@ -32,6 +32,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 transform: self
                     .transform(&mut o, "to_world")?
                     .map(|(_, m)| desc::TransformDesc::from_matrix(m)),
+                mapping: None,
             })
         };
         if let Some(&c) = o.children.first() {

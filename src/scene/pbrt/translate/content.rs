@@ -620,6 +620,19 @@ impl Translator<'_> {
                         irradiance: Fixed(l.map(|c| c * scale)),
                     }));
             }
+            "infinite" if find(&d.params, "filename").is_some() => {
+                check_known(d, &d.params, &["filename", "scale"])?;
+                if self.environment.is_some() {
+                    return Err(d.err("a second infinite light"));
+                }
+                let file = string_param(d, &d.params, "filename")?.unwrap_or_default();
+                self.environment = Some(desc::EnvironmentDesc::Envmap(desc::EnvmapDesc {
+                    file,
+                    scale: Some(scale),
+                    transform: Some(TransformDesc::from_matrix(self.state.ctm)),
+                    mapping: Some("equal_area".into()),
+                }));
+            }
             "infinite" => {
                 check_known(d, &d.params, &["L", "scale"])?;
                 if self.environment.is_some() {
@@ -631,10 +644,7 @@ impl Translator<'_> {
                 }));
             }
             other => {
-                return Err(d.err(format!(
-                    "unsupported light {other:?} (point, spot, distant, infinite with L; equal-area \
-                     environment maps are not read yet)"
-                )));
+                return Err(d.err(format!("unsupported light {other:?} (point, spot, distant, infinite)")));
             }
         }
         Ok(())
