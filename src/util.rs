@@ -111,6 +111,26 @@ pub fn read_input(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// Whether `path` ends in `.gz` (any case): a gzip-compressed file, as pbrt-v4 reads them.
+pub fn is_gzip(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz"))
+}
+
+/// The bytes of a gzip stream, decompressed; at most `limit` bytes of output (a message, not a
+/// panic, for a damaged stream or one that would expand beyond it).
+pub fn gunzip(bytes: &[u8], limit: u64) -> std::result::Result<Vec<u8>, String> {
+    use std::io::Read;
+    let mut out = Vec::new();
+    flate2::read::GzDecoder::new(bytes)
+        .take(limit + 1)
+        .read_to_end(&mut out)
+        .map_err(|e| format!("not a readable gzip stream: {e}"))?;
+    if out.len() as u64 > limit {
+        return Err(format!("expands to more than {limit} bytes"));
+    }
+    Ok(out)
+}
+
 /// [`read_input`] of a UTF-8 text file.
 pub fn read_input_to_string(path: &Path, what: &str, limit: u64) -> Result<String> {
     String::from_utf8(read_input(path, what, limit)?).map_err(|e| {

@@ -553,3 +553,44 @@ fn equal_area_environment_maps_are_read_as_pbrt_reads_them() {
     .to_string();
     assert_refused(&err, &["line 13", "portal"]);
 }
+
+/// gzip-compressed files as pbrt-v4 reads them: the scene itself (`.pbrt.gz`), an `Include`d
+/// file and a PLY mesh (`.ply.gz`); includes, also inside includes, are relative to the main
+/// file's directory (pbrt's search directory); a damaged stream is refused in one line.
+#[test]
+fn gzip_compressed_scenes_includes_and_meshes_are_read() {
+    use std::io::Write;
+    let dir = tempfile::tempdir().unwrap();
+    let gz = |path: &std::path::Path, text: &str| {
+        let mut z = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(text.as_bytes()).unwrap();
+        std::fs::write(path, z.finish().unwrap()).unwrap();
+    };
+    std::fs::create_dir(dir.path().join("geometry")).unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+               element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0.5 0\n1 0.5 0\n0 0.5 1\n3 0 1 2\n";
+    gz(&dir.path().join("geometry/tri.ply.gz"), ply);
+    // Included from geometry/, naming its own include relative to the main file.
+    gz(
+        &dir.path().join("geometry/outer.pbrt.gz"),
+        "Include \"geometry/inner.pbrt\"\n",
+    );
+    std::fs::write(
+        dir.path().join("geometry/inner.pbrt"),
+        "Shape \"plymesh\" \"string filename\" \"geometry/tri.ply.gz\"\n",
+    )
+    .unwrap();
+    let main = dir.path().join("scene.pbrt.gz");
+    gz(
+        &main,
+        &lit_floor(&format!("{LIGHT}\nInclude \"geometry/outer.pbrt.gz\"")),
+    );
+    let s = photon_bench::scene::load::load_scene_with_stats(&main).unwrap().0;
+    assert_eq!(s.primitives.len(), 3, "the floor's two triangles and the PLY's one");
+    std::fs::write(dir.path().join("geometry/outer.pbrt.gz"), b"not gzip").unwrap();
+    let err = photon_bench::scene::load::load_scene_with_stats(&main)
+        .err()
+        .unwrap()
+        .to_string();
+    assert_refused(&err, &["outer.pbrt.gz", "gzip"]);
+}

@@ -334,7 +334,15 @@ impl Builder<'_> {
         let bytes =
             read_regular_file(&path, "mesh").map_err(|e| ctx.err(&file_field, format!("cannot read {shown}: {e}")))?;
         self.stats.files_read.push(path.clone());
-        let extension = path
+        // A `.ply.gz` (pbrt-v4 reads gzip-compressed PLY files) is its decompressed PLY.
+        let (bytes, named) = if crate::util::is_gzip(&path) {
+            let plain = crate::util::gunzip(&bytes, crate::util::MAX_TEXT_INPUT * 16)
+                .map_err(|e| ctx.err(&file_field, format!("{shown}: {e}")))?;
+            (plain, path.with_extension(""))
+        } else {
+            (bytes, path.clone())
+        };
+        let extension = named
             .extension()
             .and_then(|e| e.to_str())
             .unwrap_or("")

@@ -178,6 +178,14 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
     let ctx = Ctx {
         file: path.display().to_string(),
     };
+    // pbrt-v4 reads gzip-compressed scene files; the hash below still covers the file's bytes.
+    let plain;
+    let bytes = if super::pbrt::is_pbrt(path) && crate::util::is_gzip(path) {
+        plain = crate::util::gunzip(bytes, crate::util::MAX_TEXT_INPUT).map_err(|e| ctx.whole(e))?;
+        &plain[..]
+    } else {
+        bytes
+    };
     let text = std::str::from_utf8(bytes).map_err(|e| {
         ctx.whole(format!(
             "not valid UTF-8 (first bad byte at offset {})",

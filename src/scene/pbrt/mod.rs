@@ -65,7 +65,12 @@ pub fn import(file: &str, dir: &Path, text: &str) -> Result<Imported> {
     })
 }
 
-/// Whether `path` names a pbrt scene (by its extension).
+/// Whether `path` names a pbrt scene (by its extension: `.pbrt`, or `.pbrt.gz` compressed).
 pub fn is_pbrt(path: &Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pbrt"))
+    let plain = if crate::util::is_gzip(path) {
+        path.file_stem().map(Path::new)
+    } else {
+        Some(path)
+    };
+    plain.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("pbrt")))
 }

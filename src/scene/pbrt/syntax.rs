@@ -145,7 +145,9 @@ pub fn read(
     Ok(out)
 }
 
-/// The directives of the file an `Include` names (relative to the including file).
+/// The directives of the file an `Include` names: relative to the directory of the scene's
+/// main file (pbrt-v4's search directory, also for includes inside includes), gzip-compressed
+/// when its name ends in `.gz`.
 fn include(d: &Directive, dir: &Path, included: &mut Vec<(PathBuf, Vec<u8>)>, depth: usize) -> Result<Vec<Directive>> {
     let [Value::Str(name)] = &d.args[..] else {
         return Err(d.err("expected one file name"));
@@ -154,19 +156,19 @@ fn include(d: &Directive, dir: &Path, included: &mut Vec<(PathBuf, Vec<u8>)>, de
         return Err(d.err(format!("includes nested deeper than {MAX_INCLUDE_DEPTH} (a cycle?)")));
     }
     let path = dir.join(name);
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
-        return Err(d.err(format!(
-            "{name}: gzip-compressed files are not read; decompress it first"
-        )));
-    }
     let bytes = crate::util::read_input(&path, "included pbrt file", crate::util::MAX_TEXT_INPUT)
         .map_err(|e| d.err(format!("{name}: {e}")))?;
-    let text = std::str::from_utf8(&bytes)
+    let plain = if crate::util::is_gzip(&path) {
+        crate::util::gunzip(&bytes, crate::util::MAX_TEXT_INPUT).map_err(|e| d.err(format!("{name}: {e}")))?
+    } else {
+        bytes.clone()
+    };
+    let text = std::str::from_utf8(&plain)
         .map_err(|_| d.err(format!("{name}: not valid UTF-8")))?
         .to_string();
     included.push((path.clone(), bytes));
     let shown = path.display().to_string();
-    read(&shown, path.parent().unwrap_or(dir), &text, included, depth + 1)
+    read(&shown, dir, &text, included, depth + 1)
 }
 
 /// Whether a string opens a parameter: "type name".

@@ -307,11 +307,6 @@ impl Translator<'_> {
                     ));
                 }
                 let file = string_param(d, params, "filename")?.ok_or_else(|| d.err("expected \"string filename\""))?;
-                if file.ends_with(".gz") {
-                    return Err(d.err(format!(
-                        "{file}: gzip-compressed PLY files are not read; decompress it first"
-                    )));
-                }
                 ShapeDesc::Mesh(desc::Mesh {
                     material,
                     file: self.dir.join(&file).display().to_string(),
