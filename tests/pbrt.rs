@@ -594,3 +594,41 @@ fn gzip_compressed_scenes_includes_and_meshes_are_read() {
         .to_string();
     assert_refused(&err, &["outer.pbrt.gz", "gzip"]);
 }
+
+/// A PLY mesh turned around by `ReverseOrientation`: where the file has no normals the winding
+/// decides its front and turns; where it has normals they decide, as pbrt-v4 does.
+#[test]
+fn reverse_orientation_turns_a_ply_mesh_where_its_winding_decides() {
+    let dir = tempfile::tempdir().unwrap();
+    let quad = |normals: bool| {
+        let (props, n) = if normals {
+            ("property float nx\nproperty float ny\nproperty float nz\n", " 0 -1 0")
+        } else {
+            ("", "")
+        };
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n{props}\
+             element face 2\nproperty list uchar int vertex_indices\nend_header\n\
+             -0.5 0 -0.5{n}\n0.5 0 -0.5{n}\n0.5 0 0.5{n}\n-0.5 0 0.5{n}\n3 0 1 2\n3 0 2 3\n"
+        )
+    };
+    std::fs::write(dir.path().join("bare.ply"), quad(false)).unwrap();
+    std::fs::write(dir.path().join("normals.ply"), quad(true)).unwrap();
+    let lit = |file: &str, reverse: &str| {
+        let s = load(
+            dir.path(),
+            "p.pbrt",
+            &lit_floor(&format!(
+                "AttributeBegin\n  Translate 0 2.5 0\n  {reverse}\n  AreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\n  \
+                 Shape \"plymesh\" \"string filename\" \"{file}\"\nAttributeEnd"
+            )),
+        )
+        .unwrap();
+        let img = agreement::render_image(&s, "path", "max_depth = 1", 16, 1);
+        img.pixels.iter().map(|p| p.x as f64).sum::<f64>() / img.pixels.len() as f64
+    };
+    let (down, up) = (lit("bare.ply", ""), lit("bare.ply", "ReverseOrientation"));
+    assert!(down > 0.01 && up < 0.02 * down, "facing down {down}, turned up {up}");
+    let (a, b) = (lit("normals.ply", ""), lit("normals.ply", "ReverseOrientation"));
+    assert!(a > 0.01 && (a - b).abs() < 1e-9, "with normals: {a} vs {b}");
+}

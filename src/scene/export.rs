@@ -232,6 +232,12 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             }
             ShapeDesc::Mesh(m) => {
                 let path = scene_dir.join(&m.file);
+                if crate::util::is_gzip(&path) {
+                    return Err(err(
+                        &format!("{field}.file"),
+                        "Mitsuba 3 does not read gzip-compressed meshes; decompress it first",
+                    ));
+                }
                 let written = files.written(&m.file);
                 let kind = match path
                     .extension()
@@ -259,6 +265,11 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
                 );
                 if m.face_normals || (!has_normals && !m.smooth_normals) {
                     let _ = writeln!(props, "        <boolean name=\"face_normals\" value=\"true\"/>");
+                }
+                // Mitsuba's flip_normals turns the winding's normals, which decide where the
+                // file has none (or they are ignored).
+                if m.reverse_orientation && (m.face_normals || !has_normals) {
+                    let _ = writeln!(props, "        <boolean name=\"flip_normals\" value=\"true\"/>");
                 }
                 if let Some(i) = m.shape_index {
                     let _ = writeln!(props, "        <integer name=\"shape_index\" value=\"{i}\"/>");

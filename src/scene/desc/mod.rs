@@ -174,6 +174,9 @@
 //! smooth_normals = false            # optional: true shades a file without normals smooth, as
 //!                                   #   Mitsuba (angle-weighted); false shades it flat
 //! # shape_index = 0                 # optional, .serialized only: which mesh of the file
+//! reverse_orientation = false       # optional: true turns the front where the winding
+//!                                   #   decides it (no vertex normals), as pbrt's
+//!                                   #   ReverseOrientation; a .gz file is decompressed first
 //! transform = [{ matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] },
 //!              { rotate_x = -90 }, { translate = [0, 0.1, 0] }]
 //!

@@ -112,6 +112,11 @@ pub struct Mesh {
     pub smooth_normals: bool,
     /// Which mesh of a Mitsuba `.serialized` file (default 0); other formats refuse it.
     pub shape_index: Option<u32>,
+    /// Turn the front side around where the triangles' winding decides it (a file without
+    /// vertex normals, or `face_normals`); vertex normals decide by themselves (default false).
+    /// pbrt-v4's `ReverseOrientation`.
+    #[serde(default)]
+    pub reverse_orientation: bool,
     pub transform: Option<TransformDesc>,
     pub emission: Option<EmissionDesc>,
 }

@@ -353,7 +353,7 @@ impl Builder<'_> {
                 "only a .serialized file holds several meshes",
             ));
         }
-        let (meshes, face_normals) = match extension.as_str() {
+        let (mut meshes, face_normals) = match extension.as_str() {
             "obj" => (self.obj_meshes(&file_field, &path, &bytes)?, m.face_normals),
             "ply" => (
                 vec![parse_ply(&bytes).map_err(|e| ctx.err(&file_field, format!("{shown}: {e}")))?],
@@ -372,6 +372,14 @@ impl Builder<'_> {
             }
         };
         self.hashed.push(bytes);
+        if m.reverse_orientation {
+            // Only where the winding decides the front (vertex normals decide by themselves).
+            for mesh in meshes.iter_mut().filter(|mesh| face_normals || mesh.normals.is_none()) {
+                for t in &mut mesh.triangles {
+                    t.swap(1, 2);
+                }
+            }
+        }
         let normals = MeshNormals {
             face: face_normals,
             smooth: m.smooth_normals,

@@ -167,6 +167,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     face_normals,
                     smooth_normals: !face_normals,
                     shape_index,
+                    reverse_orientation: false,
                     transform,
                     emission,
                 })

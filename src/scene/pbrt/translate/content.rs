@@ -301,11 +301,6 @@ impl Translator<'_> {
             }
             "plymesh" => {
                 check_known(d, params, &["filename"])?;
-                if ro ^ self.swaps_handedness() {
-                    return Err(d.err(
-                        "a turned-around PLY mesh (ReverseOrientation or a mirroring transform) is not read yet",
-                    ));
-                }
                 let file = string_param(d, params, "filename")?.ok_or_else(|| d.err("expected \"string filename\""))?;
                 ShapeDesc::Mesh(desc::Mesh {
                     material,
@@ -313,6 +308,8 @@ impl Translator<'_> {
                     face_normals: false,
                     smooth_normals: false,
                     shape_index: None,
+                    // Where the winding decides the front, as for `trianglemesh`.
+                    reverse_orientation: ro ^ self.swaps_handedness(),
                     transform,
                     emission,
                 })
