@@ -632,3 +632,33 @@ fn reverse_orientation_turns_a_ply_mesh_where_its_winding_decides() {
     let (a, b) = (lit("normals.ply", ""), lit("normals.ply", "ReverseOrientation"));
     assert!(a > 0.01 && (a - b).abs() < 1e-9, "with normals: {a} vs {b}");
 }
+
+/// The shipped pbrt-v4 still life loads with everything it was written to show: layered
+/// materials, a Loop-subdivision blob and three instanced pebbles, a smoothstep spot and an
+/// equal-area sky.
+#[test]
+fn the_shipped_pbrt_still_life_loads_with_its_features() {
+    use photon_bench::light::environment::Radiance;
+    let s = small(
+        "scenes/pbrt/coated-still-life.pbrt",
+        "\"integer xresolution\" 160 \"integer yresolution\" 120",
+        "\"integer xresolution\" 16 \"integer yresolution\" 12",
+    );
+    let coated = s.materials.iter().filter(|m| matches!(m.bsdf, Bsdf::Coated(_))).count();
+    assert_eq!(coated, 3, "blob, sphere and pebble");
+    let triangles = s
+        .primitives
+        .iter()
+        .filter(|p| matches!(p, photon_bench::geometry::Primitive::Triangle { .. }))
+        .count();
+    assert_eq!(
+        triangles,
+        2 + 12 * 64 + 3 * 8 * 16,
+        "floor, blob (3 levels), three pebbles (2 levels)"
+    );
+    assert!(matches!(s.delta_lights[0], photon_bench::light::delta::DeltaLight::Spot(sp) if sp.is_smoothstep()));
+    assert!(matches!(
+        s.environment.as_ref().unwrap().radiance,
+        Radiance::EqualArea(_)
+    ));
+}
