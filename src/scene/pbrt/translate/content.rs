@@ -381,11 +381,6 @@ impl Translator<'_> {
         Ok(())
     }
 
-    /// A `bilinearmesh` of flat patches as triangles: each patch (p00, p10, p01, p11) is two
-    /// triangles (p00, p10, p11) and (p00, p11, p01), which keep pbrt's front side
-    /// (p10 − p00) × (p01 − p00) and its (u, v) ((0, 0) … (1, 1) unless `uv` is given); a curved
-    /// patch (p11 off the plane of the other three) is refused, as a bilinear surface is not
-    /// rendered yet. Turned around as triangles are.
     /// pbrt's `loopsubdiv`: the control mesh refined `levels` times (default 3) and moved to
     /// the limit surface, with its normals ([`super::super::loop_subdiv`]).
     fn loop_subdivision(
@@ -436,6 +431,11 @@ impl Translator<'_> {
         }))
     }
 
+    /// A `bilinearmesh` of flat patches as triangles: each patch (p00, p10, p01, p11) is two
+    /// triangles (p00, p10, p11) and (p00, p11, p01), which keep pbrt's front side
+    /// (p10 − p00) × (p01 − p00) and its (u, v) ((0, 0) … (1, 1) unless `uv` is given); a curved
+    /// patch (p11 off the plane of the other three) is refused, as a bilinear surface is not
+    /// rendered yet. Turned around as triangles are.
     fn bilinear_patches(
         &self,
         d: &Directive,

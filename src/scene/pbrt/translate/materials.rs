@@ -47,27 +47,7 @@ impl Translator<'_> {
                     ],
                 )?;
                 let (material, eta, k) = self.conductor_ior(d, params, "")?;
-                let (au, av) = self.roughness(d, params, "")?;
-                if au.max(av) < 1e-3 {
-                    MaterialDesc::Conductor(desc::Conductor {
-                        material,
-                        eta,
-                        k,
-                        specular_reflectance: None,
-                    })
-                } else {
-                    MaterialDesc::RoughConductor(desc::RoughConductor {
-                        material,
-                        eta,
-                        k,
-                        specular_reflectance: None,
-                        distribution: Some("ggx".into()),
-                        alpha: None,
-                        alpha_u: Some(desc::ScalarDesc::Value(au)),
-                        alpha_v: Some(desc::ScalarDesc::Value(av)),
-                        sample_visible: Some(true),
-                    })
-                }
+                conductor_desc((material, eta, k), self.roughness(d, params, "")?)
             }
             "dielectric" | "thindielectric" => {
                 check_known(
@@ -75,11 +55,7 @@ impl Translator<'_> {
                     params,
                     &["eta", "roughness", "uroughness", "vroughness", "remaproughness"],
                 )?;
-                let eta = match find(params, "eta") {
-                    None => 1.5,
-                    Some(p) if p.ty == "float" => float_param(d, params, "eta")?.unwrap_or(1.5),
-                    Some(p) => return Err(d.err(format!("parameter \"{} eta\": expected a float", p.ty))),
-                };
+                let eta = self.coat_eta(d, params, "eta")?;
                 let (au, av) = self.roughness(d, params, "")?;
                 if kind == "thindielectric" {
                     MaterialDesc::ThinDielectric(desc::ThinDielectric {
@@ -177,27 +153,7 @@ impl Translator<'_> {
                     None => (eta.expect("η without a name").0, k.expect("k without a name").0),
                 };
                 let (eta, k) = (Fixed(eta.map(|x| x / coat_eta)), Fixed(k.map(|x| x / coat_eta)));
-                let (au, av) = self.roughness(d, params, "conductor.")?;
-                let base = if au.max(av) < 1e-3 {
-                    MaterialDesc::Conductor(desc::Conductor {
-                        material: None,
-                        eta: Some(eta),
-                        k: Some(k),
-                        specular_reflectance: None,
-                    })
-                } else {
-                    MaterialDesc::RoughConductor(desc::RoughConductor {
-                        material: None,
-                        eta: Some(eta),
-                        k: Some(k),
-                        specular_reflectance: None,
-                        distribution: Some("ggx".into()),
-                        alpha: None,
-                        alpha_u: Some(desc::ScalarDesc::Value(au)),
-                        alpha_v: Some(desc::ScalarDesc::Value(av)),
-                        sample_visible: Some(true),
-                    })
-                };
+                let base = conductor_desc((None, Some(eta), Some(k)), self.roughness(d, params, "conductor.")?);
                 self.coated(d, params, base, "interface.")?
             }
             other => {
@@ -363,8 +319,8 @@ impl Translator<'_> {
         }))
     }
 
-    /// A coating's index of refraction: a `float` (default 1.5); pbrt's spectrally varying η
-    /// is refused (it would split the coating by wavelength).
+    /// A dielectric's (or a coating's) index of refraction: a `float` (default 1.5); pbrt's
+    /// spectrally varying η is refused (it would split the interface by wavelength).
     fn coat_eta(&self, d: &Directive, params: &[Param], name: &str) -> Result<f64> {
         match find(params, name) {
             None => Ok(1.5),
@@ -387,4 +343,31 @@ impl Translator<'_> {
             (u, v)
         })
     }
+}
+
+/// A smooth conductor below α 10⁻³ (pbrt's `EffectivelySmooth`), a GGX rough conductor with
+/// visible-normal sampling above.
+fn conductor_desc(
+    (material, eta, k): (Option<String>, Option<Triple>, Option<Triple>),
+    (au, av): (f64, f64),
+) -> MaterialDesc {
+    if au.max(av) < 1e-3 {
+        return MaterialDesc::Conductor(desc::Conductor {
+            material,
+            eta,
+            k,
+            specular_reflectance: None,
+        });
+    }
+    MaterialDesc::RoughConductor(desc::RoughConductor {
+        material,
+        eta,
+        k,
+        specular_reflectance: None,
+        distribution: Some("ggx".into()),
+        alpha: None,
+        alpha_u: Some(desc::ScalarDesc::Value(au)),
+        alpha_v: Some(desc::ScalarDesc::Value(av)),
+        sample_visible: Some(true),
+    })
 }
