@@ -662,3 +662,125 @@ fn the_shipped_pbrt_still_life_loads_with_its_features() {
         Radiance::EqualArea(_)
     ));
 }
+
+/// pbrt-v4's `scale` texture (and an `imagemap`'s own `scale`): the texture's values times the
+/// factor — a checkerboard's colours, a bitmap's texels, a constant made uniform; a scaled
+/// bitmap has no Mitsuba equivalent and is not exported.
+#[test]
+fn scale_textures_multiply_what_they_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([255, 255, 255]))
+        .save(dir.path().join("white.png"))
+        .unwrap();
+    let reflectance_at = |textures: &str, uv: glam::Vec2| {
+        let s = load(
+            dir.path(),
+            "t.pbrt",
+            &lit_floor(&format!(
+                "{LIGHT}\n{textures}\nMaterial \"diffuse\" \"texture reflectance\" \"s\"\nShape \"sphere\" \"float radius\" 0.3"
+            )),
+        )
+        .unwrap();
+        let m = &s.materials[s.attrs.last().unwrap().material as usize];
+        m.textures[0].1.eval(uv)
+    };
+    let checks = "Texture \"c\" \"spectrum\" \"checkerboard\" \"rgb tex1\" [0.8 0.6 0.4] \"rgb tex2\" [0.2 0.2 0.2]\n\
+                  Texture \"s\" \"spectrum\" \"scale\" \"texture tex\" \"c\" \"float scale\" 0.5";
+    let (a, b) = (
+        reflectance_at(checks, glam::Vec2::new(0.5, 0.5)),
+        reflectance_at(checks, glam::Vec2::new(1.5, 0.5)),
+    );
+    let (lo, hi) = (a.min(b), a.max(b));
+    assert!(
+        (hi - glam::Vec3::new(0.4, 0.3, 0.2)).length() < 1e-6 && (lo - glam::Vec3::splat(0.1)).length() < 1e-6,
+        "{a} {b}"
+    );
+    let image = "Texture \"i\" \"spectrum\" \"imagemap\" \"string filename\" \"white.png\" \"float scale\" 0.5\n\
+                 Texture \"s\" \"spectrum\" \"scale\" \"texture tex\" \"i\" \"float scale\" 0.6";
+    assert!((reflectance_at(image, glam::Vec2::splat(0.3)) - glam::Vec3::splat(0.3)).length() < 1e-6);
+    let constant = "Texture \"s\" \"spectrum\" \"scale\" \"rgb tex\" [0.5 0.4 0.3] \"float scale\" 0.5";
+    assert!((reflectance_at(constant, glam::Vec2::splat(0.7)) - glam::Vec3::new(0.25, 0.2, 0.15)).length() < 1e-6);
+    // Exported to Mitsuba: refused, naming the file.
+    let path = dir.path().join("t.pbrt");
+    std::fs::write(
+        &path,
+        lit_floor(&format!("{LIGHT}\n{image}\nMaterial \"diffuse\" \"texture reflectance\" \"s\"\nShape \"sphere\" \"float radius\" 0.3")),
+    )
+    .unwrap();
+    let err = photon_bench::scene::export::export_file(&path, &dir.path().join("t.xml"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains("white.png") && err.contains("scaled bitmap"), "{err}");
+}
+
+/// A pbrt scene exported to Mitsuba 3 (`bench export-mitsuba` on a `.pbrt`) reads back as the
+/// same scene: the camera's rays (pbrt's mirrored camera as Mitsuba's scaled sensor frame), the
+/// triangles and the materials.
+#[test]
+fn a_pbrt_scene_exports_to_mitsuba_as_the_same_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = std::path::Path::new("scenes/pbrt/cornell-box-pbrt.pbrt");
+    let out = dir.path().join("box.xml");
+    photon_bench::scene::export::export_file(file, &out).unwrap();
+    let (p, m) = (
+        photon_bench::scene::load::load_scene_with_stats(file).unwrap().0,
+        photon_bench::scene::load::load_scene_with_stats(&out).unwrap().0,
+    );
+    assert_eq!(p.primitives.len(), m.primitives.len());
+    for raster in [Vec2::new(0.5, 0.5), Vec2::new(100.3, 17.9), Vec2::new(255.9, 200.1)] {
+        let (a, b) = (p.camera.generate_ray(raster), m.camera.generate_ray(raster));
+        assert!(
+            (a.d - b.d).length() < 1e-5 && (a.o - b.o).length() < 1e-5,
+            "{raster}: {} vs {}",
+            a.d,
+            b.d
+        );
+    }
+    let reflectances = |s: &Scene| {
+        let mut v: Vec<String> = s.materials.iter().map(|m| format!("{:?}", m.bsdf.albedo())).collect();
+        v.sort();
+        v
+    };
+    assert_eq!(reflectances(&p), reflectances(&m));
+}
+
+/// A `triangles` shape exports as a PLY file beside the XML: with vertex normals against its
+/// winding it is rewound so that Mitsuba's front (the winding's) is ours (the normals'), and a
+/// ray meets the same surface, facing the same way, in the scene read back.
+#[test]
+fn inline_triangles_export_as_ply_files_with_their_front_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = r#"[camera]
+eye = [0, 2, 3]
+look_at = [0, 0, 0]
+fov_y = 40
+resolution = [8, 6]
+[materials.m]
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[shapes]]
+type = "triangles"
+material = "m"
+positions = [[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]]
+indices = [0, 1, 2, 0, 2, 3]
+normals = [[0, 1, 0], [0, 1, 0], [0, 1, 0], [0, 1, 0]]
+uv = [[0, 0], [1, 0], [1, 1], [0, 1]]
+emission = { radiance = [1, 1, 1] }
+"#;
+    let path = dir.path().join("t.toml");
+    std::fs::write(&path, toml).unwrap();
+    let out = dir.path().join("t.xml");
+    photon_bench::scene::export::export_file(&path, &out).unwrap();
+    assert!(dir.path().join("t-triangles-0.ply").exists());
+    let (a, b) = (
+        photon_bench::scene::load::load_scene_with_stats(&path).unwrap().0,
+        photon_bench::scene::load::load_scene_with_stats(&out).unwrap().0,
+    );
+    let ray = photon_bench::geometry::Ray::new(glam::Vec3::new(0.3, 2.0, 0.2), -glam::Vec3::Y);
+    let (ha, hb) = (a.intersect(&ray).unwrap(), b.intersect(&ray).unwrap());
+    assert!(ha.ng.y > 0.99 && hb.ng.y > 0.99, "{} {}", ha.ng, hb.ng);
+    assert!((ha.p - hb.p).length() < 1e-5);
+    assert!((a.texture_uv(&ha) - b.texture_uv(&hb)).length() < 1e-5);
+    assert_eq!(a.lights.len(), b.lights.len());
+}

@@ -51,6 +51,8 @@ pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
         let text = crate::util::read_input_to_string(scene, "scene file", crate::util::MAX_TEXT_INPUT)?;
         let dir = scene.parent().unwrap_or(Path::new(""));
         super::mitsuba::import(&scene.display().to_string(), dir, &text)?.desc
+    } else if super::pbrt::is_pbrt(scene) {
+        super::pbrt::import_file(scene)?.desc
     } else {
         read_desc(scene)?
     };
@@ -58,15 +60,30 @@ pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    let (xml, mut warnings) = to_xml(&desc, scene, out_dir)?;
+    let stem = out
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().to_string());
+    let (xml, mut warnings, meshes) = to_xml(&desc, scene, (out_dir, &stem))?;
     warnings.splice(0..0, stats.warnings);
+    // The meshes of `triangles` shapes first, then the file that names them: each written
+    // whole (atomically), and only once the whole export has succeeded.
+    for (path, bytes) in &meshes {
+        crate::util::write_atomic(path, bytes)?;
+    }
     std::fs::write(out, xml).context(out.display())?;
     Ok(warnings)
 }
 
 /// The XML text of a scene description read from `scene`; mesh paths are written relative to
-/// `out_dir` when it is the scene's own directory, absolute otherwise.
-pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String, Vec<String>)> {
+/// `out_dir` when it is the scene's own directory, absolute otherwise. A `triangles` shape
+/// becomes a PLY file beside the output, `<stem>-triangles-<i>.ply`, returned with its bytes
+/// for the caller to write.
+pub fn to_xml(
+    desc: &SceneDesc,
+    scene: &Path,
+    (out_dir, stem): (&Path, &str),
+) -> Result<(String, Vec<String>, Vec<(PathBuf, Vec<u8>)>)> {
+    let mut meshes = Vec::new();
     let file = scene.display().to_string();
     let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
     let mut warnings = Vec::new();
@@ -172,12 +189,18 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
         let t = shape_transform(&file, &field, transform)?;
         let mut props = String::new();
         let kind = match shape {
-            ShapeDesc::Triangles(_) => {
-                return Err(err(
-                    &field,
-                    "a `triangles` shape lives in the scene file, and Mitsuba 3 reads meshes from files \
-                     only: write it to an OBJ or PLY file first",
-                ));
+            ShapeDesc::Triangles(tri) => {
+                let name = format!("{stem}-triangles-{i}.ply");
+                meshes.push((out_dir.join(&name), triangles_ply(tri)));
+                let _ = writeln!(props, "        <string name=\"filename\" value=\"{}\"/>", escape(&name));
+                if tri.normals.is_none() {
+                    // Ours shade a mesh without normals flat; Mitsuba would smooth it.
+                    let _ = writeln!(props, "        <boolean name=\"face_normals\" value=\"true\"/>");
+                }
+                if transform.is_some() {
+                    props.push_str(&matrix(t));
+                }
+                "ply"
             }
             ShapeDesc::Quad(q) => {
                 if subdivided(q.subdivide) {
@@ -341,7 +364,7 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, out_dir: &Path) -> Result<(String,
             desc.user_paths.len()
         ));
     }
-    Ok((x, warnings))
+    Ok((x, warnings, meshes))
 }
 
 /// The camera's pixel filter as Mitsuba's `<rfilter>` (the box when none is given: our default,
@@ -474,12 +497,21 @@ impl Files<'_> {
         }
     }
 
-    /// A colour parameter: `<rgb>`, or the texture as a nested `<texture>`.
-    fn color(&self, name: &str, c: &Color, indent: &str) -> String {
+    /// A colour parameter: `<rgb>`, or the texture as a nested `<texture>`; an error for a
+    /// scaled bitmap (Mitsuba's has no factor).
+    fn color(&self, name: &str, c: &Color, indent: &str) -> Result<String> {
         let t = match c {
-            Color::Rgb(v) => return format!("{indent}<rgb name=\"{name}\" value=\"{}\"/>\n", nums(&v.0)),
+            Color::Rgb(v) => return Ok(format!("{indent}<rgb name=\"{name}\" value=\"{}\"/>\n", nums(&v.0))),
             Color::Texture(t) => t,
         };
+        if let TextureDesc::Bitmap(b) = &**t
+            && b.scale.is_some_and(|s| s != 1.0)
+        {
+            return Err(Error::new(format!(
+                "{}: {name}: a scaled bitmap (pbrt's scale) has no Mitsuba 3 equivalent",
+                b.file
+            )));
+        }
         let inner = format!("{indent}    ");
         let (kind, mut props, to_uv) = match &**t {
             TextureDesc::Checkerboard(c) => (
@@ -526,7 +558,9 @@ impl Files<'_> {
                 nums(&m)
             );
         }
-        format!("{indent}<texture type=\"{kind}\" name=\"{name}\">\n{props}{indent}</texture>\n")
+        Ok(format!(
+            "{indent}<texture type=\"{kind}\" name=\"{name}\">\n{props}{indent}</texture>\n"
+        ))
     }
 }
 
@@ -554,7 +588,7 @@ fn material_xml(
     let bsdf = match m {
         MaterialDesc::Diffuse(d) => twosided(format!(
             "        <bsdf type=\"diffuse\">\n{}        </bsdf>\n",
-            files.color("reflectance", &d.reflectance, INNER)
+            files.color("reflectance", &d.reflectance, INNER)?
         )),
         MaterialDesc::Mirror(d) => twosided(format!(
             "        <bsdf type=\"conductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
@@ -600,7 +634,7 @@ fn material_xml(
         MaterialDesc::RoughConductor(c) => twosided(format!(
             "        <bsdf type=\"roughconductor\">\n{}{}        </bsdf>\n",
             conductor_props(&c.conductor(), INNER),
-            roughness_props(&c.roughness(), INNER, files)
+            roughness_props(&c.roughness(), INNER, files)?
         )),
         MaterialDesc::RoughDielectric(d) => format!(
             "    <bsdf type=\"roughdielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
@@ -608,7 +642,7 @@ fn material_xml(
             d.ior,
             optional_rgb("specular_reflectance", d.specular_reflectance, OUTER),
             optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
-            roughness_props(&d.roughness(), OUTER, files)
+            roughness_props(&d.roughness(), OUTER, files)?
         ),
         MaterialDesc::RoughPlastic(p) => twosided(plastic_xml(
             "roughplastic",
@@ -618,9 +652,9 @@ fn material_xml(
                 p.specular_reflectance,
                 p.nonlinear,
             ),
-            &roughness_props(&p.roughness(), INNER, files),
+            &roughness_props(&p.roughness(), INNER, files)?,
             files,
-        )),
+        )?),
         MaterialDesc::Plastic(p) => twosided(plastic_xml(
             "plastic",
             (
@@ -631,13 +665,13 @@ fn material_xml(
             ),
             "",
             files,
-        )),
+        )?),
         MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
         MaterialDesc::Mask(m) => {
             // The nested material as it would stand alone, its id moved to the mask.
             let inner = material_xml(&m.bsdf, one_sided, id, field, file, files, warnings)?;
             let inner = indented(&inner.replacen(&format!(" id=\"{id}\""), "", 1));
-            let opacity = scalar_xml("opacity", m.opacity.as_ref(), files);
+            let opacity = scalar_xml("opacity", m.opacity.as_ref(), files)?;
             format!("    <bsdf type=\"mask\" id=\"{id}\">\n{opacity}{inner}    </bsdf>\n")
         }
         MaterialDesc::Blend(b) => {
@@ -657,7 +691,7 @@ fn material_xml(
             }
             format!(
                 "    <bsdf type=\"blendbsdf\" id=\"{id}\">\n{}{parts}    </bsdf>\n",
-                scalar_xml("weight", b.weight.as_ref(), files)
+                scalar_xml("weight", b.weight.as_ref(), files)?
             )
         }
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
@@ -675,15 +709,15 @@ fn material_xml(
 }
 
 /// A number parameter that may be a texture (absent: Mitsuba's default 0.5, written out).
-fn scalar_xml(name: &str, v: Option<&desc::ScalarDesc>, files: &Files) -> String {
+fn scalar_xml(name: &str, v: Option<&desc::ScalarDesc>, files: &Files) -> Result<String> {
     scalar_xml_at(name, Some(v.unwrap_or(&desc::ScalarDesc::Value(0.5))), files, OUTER)
 }
 
 /// A number parameter (or its texture) at `indent`; nothing when absent.
-fn scalar_xml_at(name: &str, v: Option<&desc::ScalarDesc>, files: &Files, indent: &str) -> String {
+fn scalar_xml_at(name: &str, v: Option<&desc::ScalarDesc>, files: &Files, indent: &str) -> Result<String> {
     match v {
-        None => String::new(),
-        Some(desc::ScalarDesc::Value(v)) => format!("{indent}<float name=\"{name}\" value=\"{v}\"/>\n"),
+        None => Ok(String::new()),
+        Some(desc::ScalarDesc::Value(v)) => Ok(format!("{indent}<float name=\"{name}\" value=\"{v}\"/>\n")),
         Some(desc::ScalarDesc::Texture(t)) => files.color(name, &Color::Texture(t.clone()), indent),
     }
 }
@@ -700,8 +734,8 @@ fn plastic_xml(
     (ior, diffuse, specular, nonlinear): (Option<f64>, Option<&Color>, Option<Triple>, Option<bool>),
     extra: &str,
     files: &Files,
-) -> String {
-    format!(
+) -> Result<String> {
+    Ok(format!(
         "        <bsdf type=\"{kind}\">\n{INNER}<float name=\"int_ior\" value=\"{}\"/>\n{INNER}\
          <float name=\"ext_ior\" value=\"1\"/>\n{}{}{INNER}<boolean name=\"nonlinear\" value=\"{}\"/>\n{extra}        </bsdf>\n",
         ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
@@ -709,10 +743,10 @@ fn plastic_xml(
             "diffuse_reflectance",
             diffuse.unwrap_or(&Color::Rgb(Fixed([0.5; 3]))),
             INNER
-        ),
+        )?,
         optional_rgb("specular_reflectance", specular, INNER),
         nonlinear.unwrap_or(false),
-    )
+    ))
 }
 
 /// Indentation of the properties of a top-level BSDF and of one nested in `twosided`.
@@ -741,15 +775,15 @@ fn conductor_props(c: &desc::Conductor, indent: &str) -> String {
 }
 
 /// A microfacet distribution with every default written out.
-fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> String {
+fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> Result<String> {
     let mut x = format!(
         "{indent}<string name=\"distribution\" value=\"{}\"/>\n",
         escape(r.distribution.as_deref().unwrap_or("beckmann"))
     );
     match (&r.alpha_u, &r.alpha_v) {
         (Some(u), Some(v)) => {
-            x += &scalar_xml_at("alpha_u", Some(u), files, indent);
-            x += &scalar_xml_at("alpha_v", Some(v), files, indent);
+            x += &scalar_xml_at("alpha_u", Some(u), files, indent)?;
+            x += &scalar_xml_at("alpha_v", Some(v), files, indent)?;
         }
         _ => {
             x += &scalar_xml_at(
@@ -757,7 +791,7 @@ fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> String {
                 Some(r.alpha.as_ref().unwrap_or(&desc::ScalarDesc::Value(0.1))),
                 files,
                 indent,
-            )
+            )?
         }
     }
     let _ = writeln!(
@@ -765,5 +799,55 @@ fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> String {
         "{indent}<boolean name=\"sample_visible\" value=\"{}\"/>",
         r.sample_visible.unwrap_or(true)
     );
-    x
+    Ok(x)
+}
+
+/// A `triangles` shape as an ASCII PLY file: positions, normals and (u, v) where given, and the
+/// faces wound so that, where there are normals, each triangle's winding agrees with them
+/// (Mitsuba's front side is the winding's; ours the normals').
+fn triangles_ply(t: &desc::Triangles) -> Vec<u8> {
+    let n = t.positions.len();
+    let indices: Vec<usize> = match &t.indices {
+        Some(i) => i.iter().map(|&k| k as usize).collect(),
+        None => (0..n).collect(),
+    };
+    let mut out =
+        format!("ply\nformat ascii 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\n");
+    if t.normals.is_some() {
+        out += "property float nx\nproperty float ny\nproperty float nz\n";
+    }
+    if t.uv.is_some() {
+        out += "property float u\nproperty float v\n";
+    }
+    let _ = write!(
+        out,
+        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        indices.len() / 3
+    );
+    for k in 0..n {
+        let mut line = words(&t.positions[k].0);
+        if let Some(ns) = &t.normals {
+            line = format!("{line} {}", words(&ns[k].0));
+        }
+        if let Some(uv) = &t.uv {
+            line = format!("{line} {}", words(&uv[k].0));
+        }
+        let _ = writeln!(out, "{line}");
+    }
+    for f in indices.chunks(3) {
+        let [a, b, c] = [f[0], f[1], f[2]];
+        let flip = t.normals.as_ref().is_some_and(|ns| {
+            let p = |k: usize| DVec3::from_array(t.positions[k].0);
+            let normal = (p(b) - p(a)).cross(p(c) - p(a));
+            let shading: DVec3 = [a, b, c].iter().map(|&k| DVec3::from_array(ns[k].0)).sum();
+            normal.dot(shading) < 0.0
+        });
+        let _ = writeln!(out, "3 {a} {} {}", if flip { c } else { b }, if flip { b } else { c });
+    }
+    out.into_bytes()
+}
+
+/// Numbers separated by spaces (PLY's ASCII format).
+fn words(v: &[f64]) -> String {
+    v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
 }

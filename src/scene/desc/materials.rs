@@ -131,6 +131,9 @@ pub struct BitmapDesc {
     pub wrap: Option<String>,
     /// Use 8-bit values as they are instead of decoding sRGB (default false).
     pub raw: Option<bool>,
+    /// Multiplies every texel (default 1; pbrt-v4's `scale` of an `imagemap` and its `scale`
+    /// texture). Mitsuba 3's bitmap has no such factor: a scaled bitmap is not exported.
+    pub scale: Option<f64>,
     pub to_uv: Option<UvTransformDesc>,
 }
 

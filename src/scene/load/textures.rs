@@ -170,7 +170,14 @@ impl<'a> Textures<'a> {
                 image
             }
         };
-        let (width, height, texels) = image;
+        let (width, height, mut texels) = image;
+        match b.scale {
+            None => {}
+            Some(s) if s.is_finite() && (0.0..=1e4).contains(&s) => {
+                texels = texels.iter().map(|t| *t * s as f32).collect();
+            }
+            Some(s) => return Err(ctx.err(&f("scale"), format!("expected a number in [0, 1e4], got {}", num(s)))),
+        }
         Ok(Texture::Bitmap(Bitmap {
             width,
             height,

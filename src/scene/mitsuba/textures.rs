@@ -59,6 +59,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     filter,
                     wrap,
                     raw: self.boolean(&mut o, "raw")?,
+                    scale: None,
                     to_uv,
                 })
             }

@@ -65,6 +65,26 @@ pub fn import(file: &str, dir: &Path, text: &str) -> Result<Imported> {
     })
 }
 
+/// Reads and translates the pbrt-v4 scene file at `path` (gzip-compressed if it ends in
+/// `.gz`).
+pub fn import_file(path: &Path) -> Result<Imported> {
+    let bytes = crate::util::read_input(path, "scene file", crate::util::MAX_TEXT_INPUT)?;
+    let shown = path.display().to_string();
+    let bytes = if crate::util::is_gzip(path) {
+        crate::util::gunzip(&bytes, crate::util::MAX_TEXT_INPUT)
+            .map_err(|e| crate::error::Error::new(format!("{shown}: {e}")))?
+    } else {
+        bytes
+    };
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        crate::error::Error::new(format!(
+            "{shown}: not valid UTF-8 (first bad byte at offset {})",
+            e.valid_up_to()
+        ))
+    })?;
+    import(&shown, path.parent().unwrap_or(Path::new("")), text)
+}
+
 /// Whether `path` names a pbrt scene (by its extension: `.pbrt`, or `.pbrt.gz` compressed).
 pub fn is_pbrt(path: &Path) -> bool {
     let plain = if crate::util::is_gzip(path) {

@@ -192,7 +192,7 @@ impl Translator<'_> {
                     d,
                     &d.params,
                     &[
-                        "filename", "uscale", "vscale", "udelta", "vdelta", "filter", "wrap", "encoding",
+                        "filename", "uscale", "vscale", "udelta", "vdelta", "filter", "wrap", "encoding", "scale",
                     ],
                 )?;
                 let file =
@@ -218,6 +218,7 @@ impl Translator<'_> {
                     filter,
                     wrap,
                     raw,
+                    scale: float_param(d, &d.params, "scale")?,
                     to_uv: Some(desc::UvTransformDesc {
                         scale: None,
                         offset: None,
@@ -236,7 +237,44 @@ impl Translator<'_> {
                     }),
                 })
             }
-            other => return Err(d.err(format!("unsupported texture {other:?} (checkerboard, imagemap)"))),
+            "scale" => {
+                check_known(d, &d.params, &["tex", "scale"])?;
+                let s = match find(&d.params, "scale") {
+                    None => 1.0,
+                    Some(p) if p.ty == "float" => float_param(d, &d.params, "scale")?.unwrap_or(1.0),
+                    Some(_) => return Err(d.err("scale: a texture is not read here; give a float")),
+                };
+                // tex times s: a named texture's values scaled, or a uniform one.
+                match self.colour(d, &d.params, "tex", true)? {
+                    Some(Color::Texture(t)) => match *t {
+                        TextureDesc::Checkerboard(mut c) => {
+                            for colour in [&mut c.color0, &mut c.color1] {
+                                *colour = colour.map(|v| Fixed(v.0.map(|x| x * s)));
+                            }
+                            TextureDesc::Checkerboard(c)
+                        }
+                        TextureDesc::Bitmap(mut b) => {
+                            b.scale = Some(b.scale.unwrap_or(1.0) * s);
+                            TextureDesc::Bitmap(b)
+                        }
+                    },
+                    value => {
+                        let c = match value {
+                            Some(Color::Rgb(c)) => c,
+                            _ => Fixed([1.0; 3]),
+                        };
+                        let v = Some(Fixed(c.0.map(|x| x * s)));
+                        TextureDesc::Checkerboard(desc::CheckerboardDesc {
+                            color0: v,
+                            color1: v,
+                            to_uv: None,
+                        })
+                    }
+                }
+            }
+            other => {
+                return Err(d.err(format!("unsupported texture {other:?} (checkerboard, imagemap, scale)")));
+            }
         };
         self.textures.insert(name.clone(), t);
         Ok(())
