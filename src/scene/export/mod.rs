@@ -34,8 +34,9 @@ use glam::{DAffine3, DMat3, DMat4, DVec3};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-/// Writes `scene` (a TOML or Mitsuba scene file) as Mitsuba 3 XML to `out`; returns the
-/// warnings (approximations and what was left out), one line each.
+mod materials;
+use materials::material_xml;
+
 /// Mitsuba's rectangle and cube are two and twelve triangles: a subdivided quad or box (the
 /// same surface, more triangles: what scale measurements need) cannot be written as one.
 fn subdivided(subdivide: Option<i64>) -> bool {
@@ -44,6 +45,8 @@ fn subdivided(subdivide: Option<i64>) -> bool {
 
 const SUBDIVIDE_REFUSED: &str = "subdivide has no Mitsuba 3 equivalent (its rectangle and cube are not subdivided)";
 
+/// Writes `scene` (a TOML, Mitsuba or pbrt-v4 scene file) as Mitsuba 3 XML to `out`; returns
+/// the warnings (approximations and what was left out), one line each.
 pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
     // The scene must load as it is: export never writes what `bench run` would refuse.
     let (_, stats) = load_scene_with_stats(scene)?;
@@ -63,7 +66,11 @@ pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
     let stem = out
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().to_string());
-    let (xml, mut warnings, meshes) = to_xml(&desc, scene, (out_dir, &stem))?;
+    let Exported {
+        xml,
+        mut warnings,
+        meshes,
+    } = to_xml(&desc, scene, (out_dir, &stem))?;
     warnings.splice(0..0, stats.warnings);
     // The meshes of `triangles` shapes first, then the file that names them: each written
     // whole (atomically), and only once the whole export has succeeded.
@@ -74,15 +81,18 @@ pub fn export_file(scene: &Path, out: &Path) -> Result<Vec<String>> {
     Ok(warnings)
 }
 
+/// What [`to_xml`] makes: the XML, its warnings, and the mesh files it names (path, bytes).
+pub struct Exported {
+    pub xml: String,
+    pub warnings: Vec<String>,
+    pub meshes: Vec<(PathBuf, Vec<u8>)>,
+}
+
 /// The XML text of a scene description read from `scene`; mesh paths are written relative to
 /// `out_dir` when it is the scene's own directory, absolute otherwise. A `triangles` shape
 /// becomes a PLY file beside the output, `<stem>-triangles-<i>.ply`, returned with its bytes
 /// for the caller to write.
-pub fn to_xml(
-    desc: &SceneDesc,
-    scene: &Path,
-    (out_dir, stem): (&Path, &str),
-) -> Result<(String, Vec<String>, Vec<(PathBuf, Vec<u8>)>)> {
+pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) -> Result<Exported> {
     let mut meshes = Vec::new();
     let file = scene.display().to_string();
     let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
@@ -364,7 +374,11 @@ pub fn to_xml(
             desc.user_paths.len()
         ));
     }
-    Ok((x, warnings, meshes))
+    Ok(Exported {
+        xml: x,
+        warnings,
+        meshes,
+    })
 }
 
 /// The camera's pixel filter as Mitsuba's `<rfilter>` (the box when none is given: our default,
@@ -562,244 +576,6 @@ impl Files<'_> {
             "{indent}<texture type=\"{kind}\" name=\"{name}\">\n{props}{indent}</texture>\n"
         ))
     }
-}
-
-/// One material as a top-level `<bsdf id>`: reflecting models wrapped in `twosided` (ours reflect
-/// on both sides) unless `one_sided` (Mitsuba's own sidedness: the BSDF bare), dielectrics as
-/// they are.
-fn material_xml(
-    m: &MaterialDesc,
-    one_sided: bool,
-    id: &str,
-    field: &str,
-    file: &str,
-    files: &Files,
-    warnings: &mut Vec<String>,
-) -> Result<String> {
-    let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
-    let twosided = |inner: String| {
-        if one_sided {
-            // The nested element itself, carrying the id.
-            inner.replacen(">", &format!(" id=\"{id}\">"), 1)
-        } else {
-            format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n")
-        }
-    };
-    let bsdf = match m {
-        MaterialDesc::Diffuse(d) => twosided(format!(
-            "        <bsdf type=\"diffuse\">\n{}        </bsdf>\n",
-            files.color("reflectance", &d.reflectance, INNER)?
-        )),
-        MaterialDesc::Mirror(d) => twosided(format!(
-            "        <bsdf type=\"conductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
-             <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
-            nums(&d.reflectance.0)
-        )),
-        MaterialDesc::Dielectric(d) => format!(
-            "    <bsdf type=\"dielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
-             <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n",
-            d.ior
-        ),
-        MaterialDesc::ThinDielectric(d) => format!(
-            "    <bsdf type=\"thindielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
-             <float name=\"ext_ior\" value=\"1\"/>\n        \
-             <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        \
-             <rgb name=\"specular_transmittance\" value=\"{}\"/>\n    </bsdf>\n",
-            d.ior,
-            nums(&d.reflectance.0),
-            nums(&d.transmittance.0)
-        ),
-        MaterialDesc::Ward(w) if w.diffuse.0 == [0.0; 3] => {
-            warnings.push(format!(
-                "{file}: {field}: ward written as Mitsuba's roughconductor (Beckmann, same alpha): \
-                 similar, not equal lobes"
-            ));
-            twosided(format!(
-                "        <bsdf type=\"roughconductor\">\n            <string name=\"material\" value=\"none\"/>\n            \
-                 <string name=\"distribution\" value=\"beckmann\"/>\n            \
-                 <float name=\"alpha_u\" value=\"{}\"/>\n            <float name=\"alpha_v\" value=\"{}\"/>\n            \
-                 <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
-                w.alpha_x,
-                w.alpha_y,
-                nums(&w.specular.0)
-            ))
-        }
-        MaterialDesc::Ward(_) => {
-            return Err(err(field, "a ward with a diffuse part has no Mitsuba 3 equivalent"));
-        }
-        MaterialDesc::Conductor(c) => twosided(format!(
-            "        <bsdf type=\"conductor\">\n{}        </bsdf>\n",
-            conductor_props(c, INNER)
-        )),
-        MaterialDesc::RoughConductor(c) => twosided(format!(
-            "        <bsdf type=\"roughconductor\">\n{}{}        </bsdf>\n",
-            conductor_props(&c.conductor(), INNER),
-            roughness_props(&c.roughness(), INNER, files)?
-        )),
-        MaterialDesc::RoughDielectric(d) => format!(
-            "    <bsdf type=\"roughdielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
-             <float name=\"ext_ior\" value=\"1\"/>\n{}{}{}    </bsdf>\n",
-            d.ior,
-            optional_rgb("specular_reflectance", d.specular_reflectance, OUTER),
-            optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
-            roughness_props(&d.roughness(), OUTER, files)?
-        ),
-        MaterialDesc::RoughPlastic(p) => twosided(plastic_xml(
-            "roughplastic",
-            (
-                p.ior,
-                p.diffuse_reflectance.as_ref(),
-                p.specular_reflectance,
-                p.nonlinear,
-            ),
-            &roughness_props(&p.roughness(), INNER, files)?,
-            files,
-        )?),
-        MaterialDesc::Plastic(p) => twosided(plastic_xml(
-            "plastic",
-            (
-                p.ior,
-                p.diffuse_reflectance.as_ref(),
-                p.specular_reflectance,
-                p.nonlinear,
-            ),
-            "",
-            files,
-        )?),
-        MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
-        MaterialDesc::Mask(m) => {
-            // The nested material as it would stand alone, its id moved to the mask.
-            let inner = material_xml(&m.bsdf, one_sided, id, field, file, files, warnings)?;
-            let inner = indented(&inner.replacen(&format!(" id=\"{id}\""), "", 1));
-            let opacity = scalar_xml("opacity", m.opacity.as_ref(), files)?;
-            format!("    <bsdf type=\"mask\" id=\"{id}\">\n{opacity}{inner}    </bsdf>\n")
-        }
-        MaterialDesc::Blend(b) => {
-            // Each model as it would stand alone (its own sidedness), without an id.
-            let mut parts = String::new();
-            for (i, m) in b.bsdfs.iter().enumerate() {
-                let part = material_xml(
-                    m,
-                    one_sided,
-                    "part",
-                    &format!("{field}.bsdfs[{i}]"),
-                    file,
-                    files,
-                    warnings,
-                )?;
-                parts += &indented(&part.replacen(" id=\"part\"", "", 1));
-            }
-            format!(
-                "    <bsdf type=\"blendbsdf\" id=\"{id}\">\n{}{parts}    </bsdf>\n",
-                scalar_xml("weight", b.weight.as_ref(), files)?
-            )
-        }
-        MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
-        MaterialDesc::Coated(_) => {
-            return Err(err(
-                field,
-                "coated (pbrt-v4's layered models) has no Mitsuba 3 equivalent",
-            ));
-        }
-        MaterialDesc::DiffuseTransmission(_) => {
-            return Err(err(field, "diffuse_transmission has no Mitsuba 3 equivalent"));
-        }
-    };
-    Ok(bsdf)
-}
-
-/// A number parameter that may be a texture (absent: Mitsuba's default 0.5, written out).
-fn scalar_xml(name: &str, v: Option<&desc::ScalarDesc>, files: &Files) -> Result<String> {
-    scalar_xml_at(name, Some(v.unwrap_or(&desc::ScalarDesc::Value(0.5))), files, OUTER)
-}
-
-/// A number parameter (or its texture) at `indent`; nothing when absent.
-fn scalar_xml_at(name: &str, v: Option<&desc::ScalarDesc>, files: &Files, indent: &str) -> Result<String> {
-    match v {
-        None => Ok(String::new()),
-        Some(desc::ScalarDesc::Value(v)) => Ok(format!("{indent}<float name=\"{name}\" value=\"{v}\"/>\n")),
-        Some(desc::ScalarDesc::Texture(t)) => files.color(name, &Color::Texture(t.clone()), indent),
-    }
-}
-
-/// A top-level element's lines moved in by one level, to nest it.
-fn indented(xml: &str) -> String {
-    xml.lines().map(|l| format!("    {l}\n")).collect()
-}
-
-/// A `plastic` or `roughplastic` BSDF (nested in `twosided`): the coating's index, the colours,
-/// `nonlinear`, then `extra` (the roughness).
-fn plastic_xml(
-    kind: &str,
-    (ior, diffuse, specular, nonlinear): (Option<f64>, Option<&Color>, Option<Triple>, Option<bool>),
-    extra: &str,
-    files: &Files,
-) -> Result<String> {
-    Ok(format!(
-        "        <bsdf type=\"{kind}\">\n{INNER}<float name=\"int_ior\" value=\"{}\"/>\n{INNER}\
-         <float name=\"ext_ior\" value=\"1\"/>\n{}{}{INNER}<boolean name=\"nonlinear\" value=\"{}\"/>\n{extra}        </bsdf>\n",
-        ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
-        files.color(
-            "diffuse_reflectance",
-            diffuse.unwrap_or(&Color::Rgb(Fixed([0.5; 3]))),
-            INNER
-        )?,
-        optional_rgb("specular_reflectance", specular, INNER),
-        nonlinear.unwrap_or(false),
-    ))
-}
-
-/// Indentation of the properties of a top-level BSDF and of one nested in `twosided`.
-const OUTER: &str = "        ";
-const INNER: &str = "            ";
-
-/// `<rgb>` for a colour that was given, nothing for one left at its default.
-fn optional_rgb(name: &str, v: Option<Triple>, indent: &str) -> String {
-    v.map_or(String::new(), |v| {
-        format!("{indent}<rgb name=\"{name}\" value=\"{}\"/>\n", nums(&v.0))
-    })
-}
-
-/// A conductor's index: its named material, or η and k as RGB (Mitsuba's defaults 0 and 1).
-fn conductor_props(c: &desc::Conductor, indent: &str) -> String {
-    let mut x = match c.material.as_deref() {
-        Some(name) if name != "none" => format!("{indent}<string name=\"material\" value=\"{}\"/>\n", escape(name)),
-        _ => format!(
-            "{indent}<rgb name=\"eta\" value=\"{}\"/>\n{indent}<rgb name=\"k\" value=\"{}\"/>\n",
-            nums(&c.eta.unwrap_or(Fixed([0.0; 3])).0),
-            nums(&c.k.unwrap_or(Fixed([1.0; 3])).0)
-        ),
-    };
-    x.push_str(&optional_rgb("specular_reflectance", c.specular_reflectance, indent));
-    x
-}
-
-/// A microfacet distribution with every default written out.
-fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> Result<String> {
-    let mut x = format!(
-        "{indent}<string name=\"distribution\" value=\"{}\"/>\n",
-        escape(r.distribution.as_deref().unwrap_or("beckmann"))
-    );
-    match (&r.alpha_u, &r.alpha_v) {
-        (Some(u), Some(v)) => {
-            x += &scalar_xml_at("alpha_u", Some(u), files, indent)?;
-            x += &scalar_xml_at("alpha_v", Some(v), files, indent)?;
-        }
-        _ => {
-            x += &scalar_xml_at(
-                "alpha",
-                Some(r.alpha.as_ref().unwrap_or(&desc::ScalarDesc::Value(0.1))),
-                files,
-                indent,
-            )?
-        }
-    }
-    let _ = writeln!(
-        x,
-        "{indent}<boolean name=\"sample_visible\" value=\"{}\"/>",
-        r.sample_visible.unwrap_or(true)
-    );
-    Ok(x)
 }
 
 /// A `triangles` shape as an ASCII PLY file: positions, normals and (u, v) where given, and the
