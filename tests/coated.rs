@@ -159,6 +159,7 @@ fn pbrt_coated_materials_map_to_ours() {
         panic!("{:?}", c.coat)
     };
     assert!((d.distribution.alpha_u - 0.2).abs() < 1e-6 && (d.ior - 1.3).abs() < 1e-6);
+    assert!(d.distribution.height_correlated, "pbrt-v4's masking");
     assert_eq!((c.max_depth, c.albedo.x, c.g), (20, 0.5, -0.2));
     let Bsdf::Coated(c) = last(
         &load_pbrt(

@@ -218,6 +218,7 @@ fn materials_map_to_ours() {
         Bsdf::RoughConductor(c) => {
             assert!((c.distribution.alpha_u - 0.3).abs() < 1e-6, "{:?}", c.distribution);
             assert_eq!(c.distribution.kind, photon_bench::bsdf::MicrofacetType::Ggx);
+            assert!(c.distribution.height_correlated, "pbrt-v4's masking");
         }
         other => panic!("{other:?}"),
     }

@@ -71,6 +71,10 @@ pub struct Microfacet {
     pub alpha_v: f32,
     /// Sample the visible normals (true) or all normals ∝ D(m) cos θm (false).
     pub sample_visible: bool,
+    /// Shadowing–masking G = 1/(1 + Λ(wi) + Λ(wo)), height-correlated as pbrt-v4's
+    /// [Heitz 2014, eq. 99], instead of Mitsuba's separable G1(wi) G1(wo) (false). Sampling is
+    /// the same (visible normals use G1 alone); only the value differs.
+    pub height_correlated: bool,
 }
 
 impl Microfacet {
@@ -81,6 +85,7 @@ impl Microfacet {
             alpha_u: alpha_u.max(MIN_ALPHA),
             alpha_v: alpha_v.max(MIN_ALPHA),
             sample_visible,
+            height_correlated: false,
         }
     }
 
@@ -157,10 +162,18 @@ impl Microfacet {
         }
     }
 
-    /// The bidirectional shadowing–masking G = G1(wi, m) G1(wo, m) (Mitsuba's separable form).
+    /// The bidirectional shadowing–masking: G1(wi, m) G1(wo, m) (Mitsuba's separable form) or,
+    /// `height_correlated`, 1/(1 + Λ(wi) + Λ(wo)) with Λ = 1/G1 − 1 (pbrt-v4's form).
     #[inline]
     pub fn g(&self, wi: Vec3, wo: Vec3, m: Vec3) -> f32 {
-        self.smith_g1(wi, m) * self.smith_g1(wo, m)
+        let (a, b) = (self.smith_g1(wi, m), self.smith_g1(wo, m));
+        if !self.height_correlated {
+            a * b
+        } else if a > 0.0 && b > 0.0 {
+            1.0 / (1.0 / a + 1.0 / b - 1.0)
+        } else {
+            0.0
+        }
     }
 
     /// The Cook–Torrance reflection of the microfacets for `wo`, `wi` above the surface: the

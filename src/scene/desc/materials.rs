@@ -187,6 +187,8 @@ pub struct Roughness {
     pub alpha_u: Option<ScalarDesc>,
     pub alpha_v: Option<ScalarDesc>,
     pub sample_visible: Option<bool>,
+    /// "separable" (default, Mitsuba's G1 G1) or "height_correlated" (pbrt-v4's).
+    pub masking: Option<String>,
 }
 
 /// The fields of [`Roughness`], one by one in each rough material (`deny_unknown_fields` does
@@ -203,6 +205,7 @@ macro_rules! rough_material {
             pub alpha_u: Option<ScalarDesc>,
             pub alpha_v: Option<ScalarDesc>,
             pub sample_visible: Option<bool>,
+            pub masking: Option<String>,
         }
 
         impl $name {
@@ -213,6 +216,7 @@ macro_rules! rough_material {
                     alpha_u: self.alpha_u.clone(),
                     alpha_v: self.alpha_v.clone(),
                     sample_visible: self.sample_visible,
+                    masking: self.masking.clone(),
                 }
             }
         }

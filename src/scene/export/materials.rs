@@ -73,7 +73,7 @@ pub(super) fn material_xml(
         MaterialDesc::RoughConductor(c) => twosided(format!(
             "        <bsdf type=\"roughconductor\">\n{}{}        </bsdf>\n",
             conductor_props(&c.conductor(), INNER),
-            roughness_props(&c.roughness(), INNER, files)?
+            roughness_props(&c.roughness(), INNER, files).map_err(|e| e.context(format!("{file}: {field}")))?
         )),
         MaterialDesc::RoughDielectric(d) => format!(
             "    <bsdf type=\"roughdielectric\" id=\"{id}\">\n        <float name=\"int_ior\" value=\"{}\"/>\n        \
@@ -81,7 +81,7 @@ pub(super) fn material_xml(
             d.ior,
             optional_rgb("specular_reflectance", d.specular_reflectance, OUTER),
             optional_rgb("specular_transmittance", d.specular_transmittance, OUTER),
-            roughness_props(&d.roughness(), OUTER, files)?
+            roughness_props(&d.roughness(), OUTER, files).map_err(|e| e.context(format!("{file}: {field}")))?
         ),
         MaterialDesc::RoughPlastic(p) => twosided(plastic_xml(
             "roughplastic",
@@ -91,7 +91,7 @@ pub(super) fn material_xml(
                 p.specular_reflectance,
                 p.nonlinear,
             ),
-            &roughness_props(&p.roughness(), INNER, files)?,
+            &roughness_props(&p.roughness(), INNER, files).map_err(|e| e.context(format!("{file}: {field}")))?,
             files,
         )?),
         MaterialDesc::Plastic(p) => twosided(plastic_xml(
@@ -215,6 +215,11 @@ fn conductor_props(c: &desc::Conductor, indent: &str) -> String {
 
 /// A microfacet distribution with every default written out.
 fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> Result<String> {
+    if r.masking.as_deref().is_some_and(|k| k != "separable") {
+        return Err(Error::new(
+            "masking = \"height_correlated\" (pbrt-v4's) has no Mitsuba 3 equivalent: its microfacet models are separable",
+        ));
+    }
     let mut x = format!(
         "{indent}<string name=\"distribution\" value=\"{}\"/>\n",
         escape(r.distribution.as_deref().unwrap_or("beckmann"))

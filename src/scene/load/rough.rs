@@ -59,12 +59,20 @@ pub(super) fn microfacet(
         alphas.push(textures.number_param(ctx, &f(key), a, (MAX_ALPHA, "a roughness"), param)?);
     }
     let (alpha_u, alpha_v) = (alphas[0], *alphas.last().unwrap());
-    Ok(Microfacet::new(
-        kind,
-        alpha_u,
-        alpha_v,
-        r.sample_visible.unwrap_or(true),
-    ))
+    let height_correlated = match r.masking.as_deref() {
+        None | Some("separable") => false,
+        Some("height_correlated") => true,
+        Some(other) => {
+            return Err(ctx.err(
+                &f("masking"),
+                format!("expected \"separable\" or \"height_correlated\", got {other:?}"),
+            ));
+        }
+    };
+    Ok(Microfacet {
+        height_correlated,
+        ..Microfacet::new(kind, alpha_u, alpha_v, r.sample_visible.unwrap_or(true))
+    })
 }
 
 /// The complex index of refraction: a named conductor, or `eta` and `k` (defaults 0 and 1, a
@@ -168,6 +176,12 @@ pub(super) fn rough_dielectric(
 
 pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic, textures: &mut Textures) -> Result<Bsdf> {
     let f = |key: &str| format!("{field}.{key}");
+    if m.masking.as_deref().is_some_and(|k| k != "separable") {
+        return Err(ctx.err(
+            &f("masking"),
+            "expected \"separable\" (rough plastic's coating is tabulated for Mitsuba's separable masking)",
+        ));
+    }
     let distribution = microfacet(ctx, field, &m.roughness(), (textures, false))?;
     if !distribution.is_isotropic() {
         return Err(ctx.err(

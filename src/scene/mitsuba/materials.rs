@@ -84,6 +84,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                         alpha_u: r.alpha_u,
                         alpha_v: r.alpha_v,
                         sample_visible: r.sample_visible,
+                        masking: None,
                     })
                 } else if c.material.is_none() && c.eta.is_none() && c.k.is_none() {
                     // Mitsuba's default conductor is a perfect mirror: ours, exactly.
@@ -107,6 +108,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     alpha_u: r.alpha_u,
                     alpha_v: r.alpha_v,
                     sample_visible: r.sample_visible,
+                    masking: None,
                 })
             }
             "roughplastic" => {
@@ -123,6 +125,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     alpha_u: r.alpha_u,
                     alpha_v: r.alpha_v,
                     sample_visible: r.sample_visible,
+                    masking: None,
                 })
             }
             "plastic" => {
@@ -274,6 +277,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             alpha_u: self.scalar_texture(o, "alpha_u")?,
             alpha_v: self.scalar_texture(o, "alpha_v")?,
             sample_visible: self.boolean(o, "sample_visible")?,
+            masking: None,
         })
     }
 

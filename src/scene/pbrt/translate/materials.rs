@@ -75,6 +75,7 @@ impl Translator<'_> {
                         alpha_u: Some(desc::ScalarDesc::Value(au)),
                         alpha_v: Some(desc::ScalarDesc::Value(av)),
                         sample_visible: Some(true),
+                        masking: Some("height_correlated".into()),
                     })
                 }
             }
@@ -316,6 +317,7 @@ impl Translator<'_> {
             alpha_u: rough.then_some(desc::ScalarDesc::Value(au)),
             alpha_v: rough.then_some(desc::ScalarDesc::Value(av)),
             sample_visible: rough.then_some(true),
+            masking: rough.then(|| "height_correlated".into()),
         }))
     }
 
@@ -369,5 +371,6 @@ fn conductor_desc(
         alpha_u: Some(desc::ScalarDesc::Value(au)),
         alpha_v: Some(desc::ScalarDesc::Value(av)),
         sample_visible: Some(true),
+        masking: Some("height_correlated".into()),
     })
 }
