@@ -447,11 +447,10 @@ fn restricted_dielectric_samplers_pass_chi2() {
 
 /// The size of pbrt's bias (docs/user-guide.md, "Layered materials"): directional albedo by
 /// `eval` with pbrt's and with the corrected weights against the model's own sampling, for a
-/// rough coating over a diffuse base. A measurement (`cargo test --release --lib
-/// measure_pbrt_weight_bias -- --ignored --nocapture`); it fails if the corrected weights stray
+/// rough coating over a diffuse base; `--nocapture` prints the table (`cargo test --release
+/// --lib measure_pbrt_weight_bias -- --nocapture`). It fails if the corrected weights stray
 /// from sampling or pbrt's stop being biased.
 #[test]
-#[ignore]
 fn measure_pbrt_weight_bias() {
     for alpha in [0.1f32, 0.3, 0.6] {
         let exact = coated(rough_coat(1.5, alpha), diffuse(0.8), 0.01, 0.0, 0.0, 10);
