@@ -1,12 +1,19 @@
 //! A balanced, pointer-free kd-tree over points [Bentley 1975], as the photon map uses it
 //! [Jensen 1996; Christensen 1999, §1.2].
 //!
-//! Layout: the items themselves are reordered into a median-split array. The node of the
-//! index range `lo..hi` is the item at `mid = (lo + hi) / 2`; its children are the ranges
-//! `lo..mid` and `mid + 1..hi`; the only extra storage is the split axis of every node (one
-//! byte per item). Items left of `mid` have a coordinate ≤ the node's, items right of it ≥.
-//! Ranges of at most [`LEAF_SIZE`] items are leaves, scanned linearly (their order is
-//! arbitrary), which saves the deepest, least selective levels of the descent.
+//! Layout: a complete binary tree of median splits whose leaves are buckets of at most
+//! [`LEAF_SIZE`] items. The items are reordered so that every leaf is a contiguous range; the
+//! range of a node is found while descending (the root holds `0..n`, a node's range
+//! `lo..hi` splits at `mid = lo + (hi − lo) / 2`), and all leaves lie at the same depth, so the
+//! inner nodes need no pointers: node k's children are 2k + 1 and 2k + 2, and each stores only
+//! its split plane (a coordinate and an axis). Items left of `mid` have a coordinate ≤ the
+//! split, items right of it ≥. The positions are also kept apart, one array per axis, so that
+//! a leaf's squared distances are computed [`LANES`] at a time in SIMD registers and only the
+//! items within the search bound are read.
+//!
+//! Why buckets: the earlier tree (every node an item, leaves of 12) computed a distance at
+//! every inner node of the descent, one at a time; profiles of the final gather and of Jensen's
+//! grid put half their time in that descent (docs/design.md, "Performance").
 //!
 //! The split axis is the longest side of the range's bounding box. Building selects medians
 //! with `select_nth_unstable` (O(n) each, O(n log n) in all), splitting large ranges over
@@ -20,9 +27,11 @@
 //!   the nearest photon with a similar normal [Christensen 1999, §2.2].
 //! - [`KdTree::for_each_within`]: every item within a radius, in no particular order.
 //!
-//! Radii are inclusive: an item at distance exactly `max_radius` is found.
+//! Radii are inclusive: an item at distance exactly `max_radius` is found. Squared distances
+//! are (dx² + dy²) + dz², in this order, as glam's `length_squared` computes them.
 
 use glam::Vec3;
+use wide::f32x8;
 
 /// Anything with a position can live in the tree.
 pub trait KdPoint {
@@ -50,15 +59,17 @@ impl KdPoint for super::Photon {
     }
 }
 
-/// Ranges with at most this many items are leaves. 12 measured 1.2–1.5× kiddo's k-NN rate
-/// on `benches/kdtree.rs`, 6 only 1.1×.
-pub const LEAF_SIZE: usize = 12;
+/// Distances computed together (one SIMD register of `wide::f32x8`).
+pub const LANES: usize = 8;
+
+/// Leaves hold at most this many items: one SIMD batch of distances.
+pub const LEAF_SIZE: usize = LANES;
 
 /// Ranges larger than this are split in parallel while building.
 const PARALLEL_BUILD: usize = 1 << 15;
 
 /// Enough for any tree that fits in memory: each level of the descent leaves at most one
-/// range on the stack.
+/// node on the stack.
 const STACK: usize = 64;
 
 /// A found item: its index in [`KdTree::items`] and its squared distance to the query.
@@ -72,8 +83,21 @@ pub struct Neighbour {
 #[derive(Clone, Debug)]
 pub struct KdTree<T> {
     items: Vec<T>,
-    /// Split axis (0, 1, 2) of the node at each index; unused for leaf items.
-    axes: Vec<u8>,
+    /// Item positions per axis, in item order, padded with [`LANES`] infinities so that a leaf's
+    /// batch can always be loaded whole.
+    coords: [Vec<f32>; 3],
+    /// Split plane of each inner node (heap order): its coordinate and axis (0, 1, 2). Every
+    /// leaf lies below the last of them, at the same depth.
+    planes: Vec<(f32, u32)>,
+}
+
+/// Depth at which halving `n` items leaves at most [`LEAF_SIZE`] in every range.
+fn leaf_depth(n: usize) -> u32 {
+    let mut depth = 0;
+    while n.div_ceil(1 << depth) > LEAF_SIZE {
+        depth += 1;
+    }
+    depth
 }
 
 impl<T: KdPoint + Send> KdTree<T> {
@@ -84,15 +108,41 @@ impl<T: KdPoint + Send> KdTree<T> {
             items.len() <= u32::MAX as usize,
             "a kd-tree holds at most 2³² − 1 items"
         );
-        let mut axes = vec![0u8; items.len()];
-        build_range(&mut items, &mut axes);
-        Self { items, axes }
+        let depth = leaf_depth(items.len());
+        // Each split's plane, recorded at its median's index when it is made (per-item arrays
+        // split into disjoint halves for the parallel build), then gathered into heap order.
+        let mut planes = vec![(0.0f32, 0u8); items.len()];
+        build_range(&mut items, &mut planes, depth);
+        let inner = (1usize << depth) - 1;
+        let mut node_planes = vec![(0.0f32, 0u32); inner];
+        let mut todo = vec![(0usize, 0usize, items.len())];
+        while let Some((node, lo, hi)) = todo.pop() {
+            if node >= inner {
+                continue;
+            }
+            let mid = lo + (hi - lo) / 2;
+            node_planes[node] = (planes[mid].0, planes[mid].1 as u32);
+            todo.push((2 * node + 1, lo, mid));
+            todo.push((2 * node + 2, mid, hi));
+        }
+        let coords = [0, 1, 2].map(|a| {
+            let mut c: Vec<f32> = items.iter().map(|it| it.position()[a]).collect();
+            c.resize(items.len() + LANES, f32::INFINITY);
+            c
+        });
+        Self {
+            items,
+            coords,
+            planes: node_planes,
+        }
     }
 }
 
-fn build_range<T: KdPoint + Send>(items: &mut [T], axes: &mut [u8]) {
+/// Orders `items` into the subtree of `levels` more splits: the median on the longest axis of
+/// the range's box goes to the middle, the lower half left of it, the upper half from it on.
+fn build_range<T: KdPoint + Send>(items: &mut [T], planes: &mut [(f32, u8)], levels: u32) {
     let n = items.len();
-    if n <= LEAF_SIZE {
+    if levels == 0 || n < 2 {
         return;
     }
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -111,62 +161,29 @@ fn build_range<T: KdPoint + Send>(items: &mut [T], axes: &mut [u8]) {
     };
     let mid = n / 2;
     items.select_nth_unstable_by(mid, |a, b| a.position()[axis].total_cmp(&b.position()[axis]));
-    axes[mid] = axis as u8;
-    let (left, rest) = items.split_at_mut(mid);
-    let right = &mut rest[1..];
-    let (axes_left, axes_rest) = axes.split_at_mut(mid);
-    let axes_right = &mut axes_rest[1..];
+    planes[mid] = (items[mid].position()[axis], axis as u8);
+    let (left, right) = items.split_at_mut(mid);
+    let (planes_left, planes_right) = planes.split_at_mut(mid);
     if n > PARALLEL_BUILD {
-        rayon::join(|| build_range(left, axes_left), || build_range(right, axes_right));
+        rayon::join(
+            || build_range(left, planes_left, levels - 1),
+            || build_range(right, planes_right, levels - 1),
+        );
     } else {
-        build_range(left, axes_left);
-        build_range(right, axes_right);
+        build_range(left, planes_left, levels - 1);
+        build_range(right, planes_right, levels - 1);
     }
 }
-
-/// The bounded max-heap of the k-nearest search, ordered by `dist2`.
-struct MaxHeap<'a> {
-    v: &'a mut Vec<Neighbour>,
-    k: usize,
-}
-
-impl MaxHeap<'_> {
-    #[inline]
-    fn push(&mut self, n: Neighbour) {
-        let v = &mut *self.v;
-        if v.len() < self.k {
-            // Sift up.
-            v.push(n);
-            let mut i = v.len() - 1;
-            while i > 0 {
-                let parent = (i - 1) / 2;
-                if v[parent].dist2 >= n.dist2 {
-                    break;
-                }
-                v[i] = v[parent];
-                i = parent;
-            }
-            v[i] = n;
-        } else {
-            // Replace the root and sift down.
-            let len = v.len();
-            let mut i = 0;
-            loop {
-                let l = 2 * i + 1;
-                if l >= len {
-                    break;
-                }
-                let r = l + 1;
-                let c = if r < len && v[r].dist2 > v[l].dist2 { r } else { l };
-                if v[c].dist2 <= n.dist2 {
-                    break;
-                }
-                v[i] = v[c];
-                i = c;
-            }
-            v[i] = n;
-        }
-    }
+/// Keeps the `k` smallest of `found` (by `dist2`) and returns the largest of them. The k-nearest
+/// search collects candidates unsorted and calls this whenever it holds 2k: amortised O(1) per
+/// candidate without the unpredictable branches of a heap's sift (a bounded max-heap was 25 %
+/// of a k = 50 search's profile).
+#[inline]
+fn keep_k_nearest(found: &mut Vec<Neighbour>, k: usize) -> f32 {
+    // Squared distances are ≥ 0 and never NaN here, so their bits order as they do.
+    found.select_nth_unstable_by_key(k - 1, |n| n.dist2.to_bits());
+    found.truncate(k);
+    found[k - 1].dist2
 }
 
 impl<T: KdPoint> KdTree<T> {
@@ -199,7 +216,7 @@ impl<T: KdPoint> KdTree<T> {
 
     /// Heap bytes used by the tree beyond the items themselves.
     pub fn overhead_bytes(&self) -> usize {
-        self.axes.len()
+        self.coords.iter().map(|c| c.len() * 4).sum::<usize>() + self.planes.len() * 8
     }
 
     /// Core of every query: visits, nearest subtrees first, every item whose squared distance
@@ -211,59 +228,67 @@ impl<T: KdPoint> KdTree<T> {
         if self.items.is_empty() || bound2.is_nan() || bound2 < 0.0 {
             return;
         }
-        let mut stack = [(0u32, 0u32, 0f32); STACK];
-        let mut top = 0usize;
-        stack[0] = (0, self.items.len() as u32, 0.0);
-        top += 1;
+        let inner = self.planes.len();
+        let mut stack = [(0u32, 0u32, 0u32, 0f32); STACK];
+        stack[0] = (0, 0, self.items.len() as u32, 0.0);
+        let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let (mut lo, mut hi, plane2) = stack[top];
+            let (mut node, mut lo, mut hi, plane2) = stack[top];
             if plane2 > bound2 {
                 continue;
             }
-            loop {
-                let n = (hi - lo) as usize;
-                if n <= LEAF_SIZE {
-                    for i in lo..hi {
-                        let d2 = (self.items[i as usize].position() - p).length_squared();
-                        if d2 <= bound2 {
-                            bound2 = visit(i, d2);
-                        }
-                    }
-                    break;
-                }
+            let q = p.to_array();
+            while (node as usize) < inner {
+                // Branch-free descent (the side taken is unpredictable): the near child is
+                // the right one when the query is on the split's upper side; the far one is
+                // kept when its slab is within the bound.
                 let mid = lo + (hi - lo) / 2;
-                let q = self.items[mid as usize].position();
-                let d2 = (q - p).length_squared();
-                if d2 <= bound2 {
-                    bound2 = visit(mid, d2);
-                }
-                let axis = self.axes[mid as usize] as usize;
-                let delta = p[axis] - q[axis];
-                let (near, far) = if delta < 0.0 {
-                    ((lo, mid), (mid + 1, hi))
-                } else {
-                    ((mid + 1, hi), (lo, mid))
-                };
+                let (split, axis) = self.planes[node as usize];
+                let delta = q[axis as usize] - split;
+                let right = delta >= 0.0;
+                let (near_lo, near_hi) = if right { (mid, hi) } else { (lo, mid) };
+                let (far_lo, far_hi) = if right { (lo, mid) } else { (mid, hi) };
                 let far2 = delta * delta;
-                if far.0 < far.1 && far2 <= bound2 {
-                    debug_assert!(top < STACK);
-                    stack[top] = (far.0, far.1, far2);
-                    top += 1;
-                }
-                if near.0 >= near.1 {
-                    break;
-                }
-                (lo, hi) = near;
+                stack[top] = (2 * node + 2 - right as u32, far_lo, far_hi, far2);
+                top += (far2 <= bound2) as usize;
+                (node, lo, hi) = (2 * node + 1 + right as u32, near_lo, near_hi);
             }
+            bound2 = self.visit_leaf(p, lo, hi, bound2, &mut visit);
         }
     }
 
+    /// Distances from `p` to the leaf `lo..hi` ([`LANES`] at once), then `visit` for those within
+    /// the bound, in item order; returns the bound after the visits.
+    #[inline]
+    fn visit_leaf(&self, p: Vec3, lo: u32, hi: u32, mut bound2: f32, visit: &mut impl FnMut(u32, f32) -> f32) -> f32 {
+        let (lo_us, len) = (lo as usize, (hi - lo) as usize);
+        let lane = |axis: usize, q: f32| {
+            let c: [f32; LANES] = self.coords[axis][lo_us..lo_us + LANES].try_into().expect("padded");
+            f32x8::from(c) - f32x8::splat(q)
+        };
+        let (dx, dy, dz) = (lane(0, p.x), lane(1, p.y), lane(2, p.z));
+        let d2 = (dx * dx + dy * dy) + dz * dz;
+        let mut within = d2.simd_le(f32x8::splat(bound2)).to_bitmask() & ((1u32 << len) - 1);
+        if within == 0 {
+            return bound2;
+        }
+        let d2 = d2.to_array();
+        while within != 0 {
+            let i = within.trailing_zeros() as usize;
+            within &= within - 1;
+            if d2[i] <= bound2 {
+                bound2 = visit(lo + i as u32, d2[i]);
+            }
+        }
+        bound2
+    }
+
     /// The (up to) `k` nearest items within `max_radius` of `p` for which `filter` holds,
-    /// written to `out` (cleared first; reuse it to avoid an allocation per query) in max-heap
-    /// order: `out[0]` is the farthest, the rest in no useful order. Ties at equal distance are
-    /// broken arbitrarily but deterministically. Density estimates and Jensen's grid only sum
-    /// over the set, so they skip the sort of [`KdTree::k_nearest`].
+    /// written to `out` (cleared first; reuse it to avoid an allocation per query): `out[0]` is
+    /// the farthest, the rest in no useful order. Ties at equal distance are broken
+    /// arbitrarily but deterministically. Density estimates and Jensen's grid only sum over the
+    /// set, so they skip the sort of [`KdTree::k_nearest`].
     pub fn k_nearest_into(
         &self,
         p: Vec3,
@@ -276,20 +301,41 @@ impl<T: KdPoint> KdTree<T> {
         if k == 0 {
             return;
         }
-        out.reserve(k.min(self.items.len()));
-        let mut heap = MaxHeap { v: out, k };
         let max_r2 = max_radius * max_radius;
+        // Candidates within the bound are collected unsorted; the bound is the k-th nearest
+        // distance known so far, found by selection each time 2k candidates are held.
+        let room = k.saturating_mul(2).min(self.items.len().max(1));
+        out.reserve(room);
         self.search(p, max_r2, |index, dist2| {
-            let full = heap.v.len() == heap.k;
-            if (!full || dist2 < heap.v[0].dist2) && filter(&self.items[index as usize]) {
-                heap.push(Neighbour { index, dist2 });
+            if !filter(&self.items[index as usize]) {
+                return if out.len() >= k {
+                    out[k - 1].dist2.min(max_r2)
+                } else {
+                    max_r2
+                };
             }
-            if heap.v.len() == heap.k {
-                heap.v[0].dist2
+            out.push(Neighbour { index, dist2 });
+            if out.len() == k.saturating_mul(2) {
+                keep_k_nearest(out, k)
+            } else if out.len() == k {
+                // First k: their largest distance bounds the rest; kept at index k − 1.
+                let far = (0..k)
+                    .max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2))
+                    .expect("k > 0");
+                out.swap(far, k - 1);
+                out[k - 1].dist2
+            } else if out.len() > k {
+                out[k - 1].dist2
             } else {
                 max_r2
             }
         });
+        if out.len() > k {
+            keep_k_nearest(out, k);
+        }
+        if let Some(far) = (0..out.len()).max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2)) {
+            out.swap(0, far);
+        }
     }
 
     /// [`KdTree::k_nearest_into`] into a new vector, sorted by increasing distance.
@@ -481,6 +527,6 @@ mod tests {
         };
         let (a, b) = (build(1), build(2));
         assert_eq!(a.items(), b.items());
-        assert_eq!(a.axes, b.axes);
+        assert_eq!(a.planes, b.planes);
     }
 }

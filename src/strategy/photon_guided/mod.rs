@@ -85,7 +85,7 @@ use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::params::{Params, Range};
 use crate::photon::{CausticStorage, KdPoint, KdTree, Photon, TraceParams, trace_photons};
 use crate::resources;
-use crate::sampling::photon_grid::{EmptyCells, FlatGrids};
+use crate::sampling::photon_grid::{EmptyCells, QuantizedGrids};
 use crate::scene::Scene;
 use glam::Vec3;
 use std::time::Instant;
@@ -149,23 +149,25 @@ impl KdPoint for GuidePhoton {
 
 /// Where Jensen's pdf was precomputed at a photon (`precomputed_pdfs`): the key a vertex
 /// looks up. The pdf itself is grid `id` of [`PdfRecords::grids`], in the frame
-/// `Frame::from_normal_tangent(normal, PdfRecords::tangents[id])`.
+/// `Frame::from_normal_tangent(normal, tangent)`.
 #[derive(Clone, Copy, Debug)]
 pub struct PdfRecord {
     pub position: Vec3,
     /// Unit normal of the side the photon arrived on.
     pub normal: Vec3,
+    /// First axis of the grid's frame.
+    pub tangent: Vec3,
     pub id: u32,
 }
 
-/// The precomputed pdfs: their keys in a kd-tree of their own (28 bytes each, so that the
-/// per-vertex nearest-record search walks a dense array) and, indexed by the key's `id`, the
-/// first axis of each frame and the grids stored flat (one contiguous read per vertex).
+/// The precomputed pdfs: their keys in a kd-tree of their own (the per-vertex nearest-record
+/// search reads positions from the tree's own arrays, and the key for the normal test and the
+/// frame) and, indexed by the key's `id`, the grids stored compactly (one or two cache lines
+/// per vertex).
 #[derive(Clone, Debug)]
 pub struct PdfRecords {
     pub tree: KdTree<PdfRecord>,
-    pub tangents: Vec<Vec3>,
-    pub grids: FlatGrids,
+    pub grids: QuantizedGrids,
 }
 
 impl KdPoint for PdfRecord {

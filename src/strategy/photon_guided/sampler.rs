@@ -9,7 +9,7 @@ use crate::color::luminance;
 use crate::geometry::Frame;
 use crate::photon::{KdTree, Neighbour};
 use crate::sampling::Rng;
-use crate::sampling::photon_grid::{FlatGrids, PhotonGrid};
+use crate::sampling::photon_grid::{PhotonGrid, QuantizedGrids};
 use crate::scene::{Scene, SurfaceHit};
 use crate::strategy::path::{BsdfSampling, DirectionSampler};
 use glam::Vec3;
@@ -33,16 +33,17 @@ pub fn precompute_pdfs(map: &KdTree<GuidePhoton>, params: &PhotonGuidedParams, e
             (frame.s, sampler.product_grid_in(ph.position, &frame, false, |_| 1.0))
         })
         .collect();
-    let keys = map.items().iter().step_by(every).enumerate().map(|(id, ph)| PdfRecord {
+    let keys = map.items().iter().step_by(every).zip(&built).enumerate();
+    let keys = keys.map(|(id, (ph, (tangent, _)))| PdfRecord {
         position: ph.position,
         normal: ph.normal,
+        tangent: *tangent,
         id: id as u32,
     });
-    let mut grids = FlatGrids::new(params.grid[0], params.grid[1]);
+    let mut grids = QuantizedGrids::new(params.grid[0], params.grid[1]);
     built.iter().for_each(|(_, grid)| grids.push(grid));
     PdfRecords {
         tree: KdTree::build(keys.collect()),
-        tangents: built.into_iter().map(|(tangent, _)| tangent).collect(),
         grids,
     }
 }
@@ -121,11 +122,11 @@ impl GridSampler<'_> {
         let found = records
             .tree
             .nearest_where(hit.p, self.params.max_radius, |r| r.normal.dot(n) > pre.normal_dot)?;
-        let id = records.tree.items()[found.index as usize].id;
+        let record = &records.tree.items()[found.index as usize];
         let n_local = if flip { -Vec3::Z } else { Vec3::Z };
         Some(GuidedVertex::Precomputed {
-            record: id,
-            frame: Frame::from_normal_tangent(n_local, hit.frame.to_local(records.tangents[id as usize])),
+            record: record.id,
+            frame: Frame::from_normal_tangent(n_local, hit.frame.to_local(record.tangent)),
         })
     }
 
