@@ -56,13 +56,24 @@ impl<'a> Context<'a> {
 // ---------------------------------------------------------------------------------------------
 // Bidirectional mutation (BD) [Veach 1997, §11.4.2].
 
+/// 2^{−j}, exactly (the value `0.5f64.powi(j)` has, without its libgcc loop: these weights are
+/// summed over every edge count in every BD density).
+#[inline]
+fn half_to_the(j: usize) -> f64 {
+    if j > 1022 {
+        0.5f64.powi(j.min(i32::MAX as usize) as i32)
+    } else {
+        f64::from_bits((1023 - j as u64) << 52)
+    }
+}
+
 /// Probability of deleting `kd` edges from a path of `k` edges: ∝ 1/4, 1/2, 2^{−kd} for kd = 1,
 /// 2, ≥ 3 (Veach's choice: mostly short changes, but any length up to the whole path).
 fn p_delete_edges(kd: usize, k: usize) -> f64 {
     let w = |j: usize| match j {
         1 => 0.25,
         2 => 0.5,
-        _ => 0.5f64.powi(j as i32),
+        _ => half_to_the(j),
     };
     // Deleting x₀ counts its virtual edge from "before the light": up to k + 1 edges, the
     // whole path but the eye.
@@ -107,7 +118,7 @@ fn p_add_edges(ka: usize, kd: usize, l: isize, kept: usize, max_edges: usize) ->
     if ka < lo || ka > hi {
         return 0.0;
     }
-    let w = |j: usize| 0.5f64.powi((j as isize - kd as isize).unsigned_abs() as i32);
+    let w = |j: usize| half_to_the(j.abs_diff(kd));
     w(ka) / (lo..=hi).map(w).sum::<f64>()
 }
 
@@ -684,4 +695,18 @@ pub fn multi_chain_perturbation(ctx: &Context, x: &[Vertex], rng: &mut Rng) -> O
     let t_fwd = mc_density(scene, &y, c);
     let t_rev = mc_density(scene, x, c);
     ratio(y, t_rev, t_fwd)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn half_to_the_is_powi_exactly() {
+        for j in (0..1100usize).chain([5000, usize::MAX]) {
+            assert_eq!(
+                super::half_to_the(j),
+                0.5f64.powi(j.min(i32::MAX as usize) as i32),
+                "j = {j}"
+            );
+        }
+    }
 }
