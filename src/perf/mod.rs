@@ -44,7 +44,8 @@ pub struct PerfReport {
     pub photons_stored: u64,
     /// k-nearest queries per second (k = 50) on that map, at surface points seen by the camera.
     pub knn_queries_per_s: f64,
-    /// Jensen 1995 guiding grids (4 × 16) built per second from those queries' photons.
+    /// Jensen 1995 per-vertex pdfs built per second at those queries, as `photon_guided` builds
+    /// them (k = 50 nearest on the vertex's side, 4 × 16 grid and its CDF) from the same photons.
     pub guided_pdfs_per_s: f64,
     /// Final-gather rays per second of `photon_map` (defaults, precomputed irradiance at every
     /// 4th photon, 1 spp over the image), lookups and shading included.
@@ -175,8 +176,9 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
 /// Photon tracing (200 000 paths), then k = 50 nearest queries at the first hits of camera
 /// rays and Jensen grids built from their photons: (photons/s, stored, queries/s, grids/s).
 fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
+    use crate::photon::KdTree;
     use crate::photon::{PhotonMap, TraceParams, trace_photons};
-    use crate::sampling::photon_grid::{EmptyCells, PhotonGrid};
+    use crate::strategy::photon_guided::{GridSampler, GuidePhoton, PhotonGuidedParams};
     let params = TraceParams {
         photons: 200_000,
         ..TraceParams::default()
@@ -187,36 +189,46 @@ fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
     let stored = traced.global.len() as u64;
     let map = PhotonMap::build(traced.global);
     let pixels = scene.camera.pixel_count();
-    let queries: Vec<(Vec3, Vec3)> = (0..pixels)
+    let queries: Vec<crate::scene::SurfaceHit> = (0..pixels)
         .step_by((pixels / 100_000).max(1))
         .filter_map(|pixel| {
             let (ray, _) = camera_ray(scene, seed + 1, pixel, 0);
-            scene.intersect(&ray).map(|h| (h.p, h.frame.n))
+            scene.intersect(&ray)
         })
         .collect();
     let start = Instant::now();
     let found: usize = queries
         .par_iter()
-        .map_init(Vec::new, |buf, &(p, _)| {
-            map.tree().k_nearest_into(p, 50, f32::INFINITY, |_| true, buf);
+        .map_init(Vec::new, |buf, hit| {
+            map.tree().k_nearest_into(hit.p, 50, f32::INFINITY, |_| true, buf);
             buf.len()
         })
         .sum();
     let knn_s = start.elapsed().as_secs_f64();
     std::hint::black_box(found);
+    // Jensen's per-vertex pdf exactly as `photon_guided` builds it (its defaults: N = 50,
+    // unbounded radius, 4 × 16 cells), from the same photons decoded once as it does.
+    let guide = KdTree::build(
+        map.photons()
+            .iter()
+            .map(|p| GuidePhoton {
+                position: p.position(),
+                direction: p.direction(),
+                normal: p.normal(),
+                flux: crate::color::luminance(p.power()),
+            })
+            .collect(),
+    );
+    let params = PhotonGuidedParams::default();
+    let sampler = GridSampler {
+        map: &guide,
+        params: &params,
+        records: None,
+    };
     let start = Instant::now();
     let grids: usize = queries
         .par_iter()
-        .map_init(Vec::new, |buf, &(p, n)| {
-            map.tree()
-                .k_nearest_into(p, 50, f32::INFINITY, |ph| ph.direction().dot(n) > 0.0, buf);
-            let frame = crate::geometry::Frame::from_normal(n);
-            let dirs = buf.iter().map(|nb| {
-                let ph = &map.photons()[nb.index as usize];
-                (frame.to_local(ph.direction()), crate::color::luminance(ph.power()))
-            });
-            PhotonGrid::build(dirs, 4, 16, 0.01, EmptyCells::Each).cell_count()
-        })
+        .map(|hit| sampler.grid_at(hit, false).cell_count())
         .sum();
     let grid_s = start.elapsed().as_secs_f64();
     std::hint::black_box(grids);

@@ -49,7 +49,7 @@ pub fn precompute_irradiance(map: &PhotonMap, every: usize, params: &EstimatePar
         })
         .collect();
     IrradianceMap {
-        tree: KdTree::build(selected),
+        tree: KdTree::build_for_nearest(selected),
         lookup_radius: params.max_radius,
     }
 }

@@ -43,7 +43,7 @@ pub fn precompute_pdfs(map: &KdTree<GuidePhoton>, params: &PhotonGuidedParams, e
     let mut grids = QuantizedGrids::new(params.grid[0], params.grid[1]);
     built.iter().for_each(|(_, grid)| grids.push(grid));
     PdfRecords {
-        tree: KdTree::build(keys.collect()),
+        tree: KdTree::build_for_nearest(keys.collect()),
         grids,
     }
 }
