@@ -72,8 +72,11 @@ fn bench(c: &mut Criterion) {
             .nearest_n::<SquaredEuclidean<f32>>(k)
             .within(MAX_RADIUS * MAX_RADIUS)
             .execute();
-        let a: Vec<f32> = buf.iter().map(|n| n.dist2).collect();
-        let b: Vec<f32> = r.iter().map(|n| n.distance).collect();
+        // Both as sets: neither output is sorted.
+        let mut a: Vec<f32> = buf.iter().map(|n| n.dist2).collect();
+        let mut b: Vec<f32> = r.iter().map(|n| n.distance).collect();
+        a.sort_by(f32::total_cmp);
+        b.sort_by(f32::total_cmp);
         assert_eq!(a.len(), b.len());
         for (x, y) in a.iter().zip(&b) {
             assert!((x - y).abs() <= 1e-6 * y.max(1e-6), "{x} vs {y}");
