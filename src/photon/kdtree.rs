@@ -2,7 +2,7 @@
 //! [Jensen 1996; Christensen 1999, §1.2].
 //!
 //! Layout: a complete binary tree of median splits whose leaves are buckets of at most
-//! [`LEAF_SIZE`] items. The items are reordered so that every leaf is a contiguous range; the
+//! [`LEAF_SIZE`] items ([`NEAREST_LEAF_SIZE`] for trees built for nearest-item lookups). The items are reordered so that every leaf is a contiguous range; the
 //! range of a node is found while descending (the root holds `0..n`, a node's range
 //! `lo..hi` splits at `mid = lo + (hi − lo) / 2`), and all leaves lie at the same depth, so the
 //! inner nodes need no pointers: node k's children are 2k + 1 and 2k + 2, and each stores only
@@ -20,9 +20,10 @@
 //! rayon; the result depends only on the input, not on the number of threads.
 //!
 //! Queries:
-//! - [`KdTree::k_nearest`]: the k nearest items within a maximum radius that pass a filter,
-//!   the farthest first (a bounded max-heap during the search) — Jensen's N-nearest search with
-//!   the normal / back-side test of the radiance estimate as the filter.
+//! - [`KdTree::k_nearest`]: the k nearest items within a maximum radius that pass a filter
+//!   (candidates collected unsorted, cut back to the k nearest by selection whenever 2k are
+//!   held) — Jensen's N-nearest search with the normal / back-side test of the radiance
+//!   estimate as the filter.
 //! - [`KdTree::nearest_where`]: the nearest item passing a predicate — Christensen's lookup of
 //!   the nearest photon with a similar normal [Christensen 1999, §2.2].
 //! - [`KdTree::for_each_within`]: every item within a radius, in no particular order.
