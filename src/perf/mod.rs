@@ -208,17 +208,7 @@ fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
     std::hint::black_box(found);
     // Jensen's per-vertex pdf exactly as `photon_guided` builds it (its defaults: N = 50,
     // unbounded radius, 4 × 16 cells), from the same photons decoded once as it does.
-    let guide = KdTree::build(
-        map.photons()
-            .iter()
-            .map(|p| GuidePhoton {
-                position: p.position(),
-                direction: p.direction(),
-                normal: p.normal(),
-                flux: crate::color::luminance(p.power()),
-            })
-            .collect(),
-    );
+    let guide = KdTree::build(map.photons().iter().map(GuidePhoton::decoded).collect());
     let params = PhotonGuidedParams::default();
     let sampler = GridSampler {
         map: &guide,

@@ -2,10 +2,11 @@
 //! [Jensen 1996; Christensen 1999, §1.2].
 //!
 //! Layout: a complete binary tree of median splits whose leaves are buckets of at most
-//! [`LEAF_SIZE`] items ([`NEAREST_LEAF_SIZE`] for trees built for nearest-item lookups). The items are reordered so that every leaf is a contiguous range; the
-//! range of a node is found while descending (the root holds `0..n`, a node's range
-//! `lo..hi` splits at `mid = lo + (hi − lo) / 2`), and all leaves lie at the same depth, so the
-//! inner nodes need no pointers: node k's children are 2k + 1 and 2k + 2, and each stores only
+//! [`LEAF_SIZE`] items ([`NEAREST_LEAF_SIZE`] for trees built for nearest-item lookups). The
+//! items are reordered so that every leaf is a contiguous range; the range of a node is found
+//! while descending (the root holds `0..n`, a node's range `lo..hi` splits at
+//! `mid = lo + (hi − lo) / 2`), and all leaves lie at the same depth, so the inner nodes need
+//! no pointers: node k's children are 2k + 1 and 2k + 2, and each stores only
 //! its split plane (a coordinate and an axis). Items left of `mid` have a coordinate ≤ the
 //! split, items right of it ≥. The positions are also kept apart, one array per axis, so that
 //! a leaf's squared distances are computed [`LANES`] at a time in SIMD registers and only the
@@ -190,16 +191,16 @@ fn build_range<T: KdPoint + Send>(items: &mut [T], planes: &mut [(f32, u8)], lev
         build_range(right, planes_right, levels - 1);
     }
 }
-/// Keeps the `k` smallest of `found` (by `dist2`) and returns the largest of them. The k-nearest
+
+/// Keeps the `k` smallest of `found` (by `dist2`), the largest of them last. The k-nearest
 /// search collects candidates unsorted and calls this whenever it holds 2k: amortised O(1) per
 /// candidate without the unpredictable branches of a heap's sift (a bounded max-heap was 25 %
 /// of a k = 50 search's profile).
 #[inline]
-fn keep_k_nearest(found: &mut Vec<Neighbour>, k: usize) -> f32 {
+fn keep_k_nearest(found: &mut Vec<Neighbour>, k: usize) {
     // Squared distances are ≥ 0 and never NaN here, so their bits order as they do.
     found.select_nth_unstable_by_key(k - 1, |n| n.dist2.to_bits());
     found.truncate(k);
-    found[k - 1].dist2
 }
 
 impl<T: KdPoint> KdTree<T> {
@@ -245,6 +246,7 @@ impl<T: KdPoint> KdTree<T> {
             return;
         }
         let inner = self.planes.len();
+        let q = p.to_array();
         let mut stack = [(0u32, 0u32, 0u32, 0f32); STACK];
         stack[0] = (0, 0, self.items.len() as u32, 0.0);
         let mut top = 1usize;
@@ -254,7 +256,6 @@ impl<T: KdPoint> KdTree<T> {
             if plane2 > bound2 {
                 continue;
             }
-            let q = p.to_array();
             while (node as usize) < inner {
                 // Branch-free descent (the side taken is unpredictable): the near child is
                 // the right one when the query is on the split's upper side; the far one is
@@ -325,28 +326,19 @@ impl<T: KdPoint> KdTree<T> {
         let room = k.saturating_mul(2).min(self.items.len().max(1));
         out.reserve(room);
         self.search(p, max_r2, |index, dist2| {
-            if !filter(&self.items[index as usize]) {
-                return if out.len() >= k {
-                    out[k - 1].dist2.min(max_r2)
-                } else {
-                    max_r2
-                };
+            if filter(&self.items[index as usize]) {
+                out.push(Neighbour { index, dist2 });
+                if out.len() == k.saturating_mul(2) {
+                    keep_k_nearest(out, k);
+                } else if out.len() == k {
+                    // The first k: their largest distance, kept at index k − 1, bounds the rest.
+                    let far = (0..k)
+                        .max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2))
+                        .expect("k > 0");
+                    out.swap(far, k - 1);
+                }
             }
-            out.push(Neighbour { index, dist2 });
-            if out.len() == k.saturating_mul(2) {
-                keep_k_nearest(out, k)
-            } else if out.len() == k {
-                // First k: their largest distance bounds the rest; kept at index k − 1.
-                let far = (0..k)
-                    .max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2))
-                    .expect("k > 0");
-                out.swap(far, k - 1);
-                out[k - 1].dist2
-            } else if out.len() > k {
-                out[k - 1].dist2
-            } else {
-                max_r2
-            }
+            if out.len() >= k { out[k - 1].dist2 } else { max_r2 }
         });
         if out.len() > k {
             keep_k_nearest(out, k);

@@ -141,6 +141,18 @@ pub struct GuidePhoton {
     pub flux: f32,
 }
 
+impl GuidePhoton {
+    /// The photon decoded once: position, direction, normal and flux luminance.
+    pub fn decoded(p: &Photon) -> Self {
+        Self {
+            position: p.position(),
+            direction: p.direction(),
+            normal: p.normal(),
+            flux: luminance(p.power()),
+        }
+    }
+}
+
 impl KdPoint for GuidePhoton {
     fn position(&self) -> Vec3 {
         self.position
@@ -220,12 +232,7 @@ fn trace_indirect(scene: &Scene, stored: u64, seed: u64) -> Result<KdTree<GuideP
         let traced = trace_photons(scene, &params, seed);
         let got = traced.global.len() as u64;
         if got >= stored {
-            let photons = traced.global[..stored as usize].iter().map(|p| GuidePhoton {
-                position: p.position(),
-                direction: p.direction(),
-                normal: p.normal(),
-                flux: luminance(p.power()),
-            });
+            let photons = traced.global[..stored as usize].iter().map(GuidePhoton::decoded);
             return Ok(KdTree::build(photons.collect()));
         }
         // Emit enough more paths, with 10 % to spare; the first paths are the same ones again.
