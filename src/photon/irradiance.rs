@@ -11,8 +11,10 @@
 //! - **The estimate** at a selected photon uses its own (quantised) normal and the caller's
 //!   [`EstimateParams`] over the *whole* global map, as in §3.1 (50 photons).
 //! - **Storage.** The selected records, with irradiance and the [`flags::IRRADIANCE`] flag,
-//!   go into a kd-tree of their own: lookups then never wade through the unselected ¾
-//!   (at k = 4 this costs 6 bytes per global photon); the global map stays untouched.
+//!   go into a kd-tree of their own, a [`FacingTree`] that keeps their normals beside their
+//!   positions so that a lookup tests eight records at once: lookups never wade through the
+//!   unselected ¾, and the global map stays untouched ([`IrradianceMap::bytes`] counts the
+//!   cost).
 //! - **Lookup.** The nearest selected photon with n_p · n > `normal_dot` (0.9 in §2.2)
 //!   within the estimate's `max_radius` (∞ allowed); none gives zero irradiance. The result
 //!   is piecewise constant over the Voronoi cells of the selected photons (§2.2).
@@ -20,7 +22,7 @@
 
 use super::PhotonMap;
 use super::estimate::EstimateParams;
-use super::kdtree::KdTree;
+use super::facing::FacingTree;
 use super::record::{Photon, flags};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -29,7 +31,7 @@ use std::f32::consts::FRAC_1_PI;
 /// Photons with precomputed irradiance, in a kd-tree of their own.
 #[derive(Clone, Debug)]
 pub struct IrradianceMap {
-    tree: KdTree<Photon>,
+    tree: FacingTree<Photon>,
     lookup_radius: f32,
 }
 
@@ -49,7 +51,7 @@ pub fn precompute_irradiance(map: &PhotonMap, every: usize, params: &EstimatePar
         })
         .collect();
     IrradianceMap {
-        tree: KdTree::build_for_nearest(selected),
+        tree: FacingTree::build(selected, Photon::normal),
         lookup_radius: params.max_radius,
     }
 }
@@ -82,7 +84,7 @@ impl IrradianceMap {
     /// [Christensen 1999, §2.2].
     pub fn lookup(&self, x: Vec3, n: Vec3, normal_dot: f32, max_radius: f32) -> Option<&Photon> {
         self.tree
-            .nearest_where(x, max_radius, |p| p.normal().dot(n) > normal_dot)
+            .nearest_facing(x, n, normal_dot, max_radius)
             .map(|nb| &self.tree.items()[nb.index as usize])
     }
 

@@ -8,9 +8,11 @@
 //! `mid = lo + (hi − lo) / 2`), and all leaves lie at the same depth, so the inner nodes need
 //! no pointers: node k's children are 2k + 1 and 2k + 2, and each stores only
 //! its split plane (a coordinate and an axis). Items left of `mid` have a coordinate ≤ the
-//! split, items right of it ≥. The positions are also kept apart, one array per axis, so that
-//! a leaf's squared distances are computed [`LANES`] at a time in SIMD registers and only the
-//! items within the search bound are read.
+//! split, items right of it ≥. The positions are also kept apart in [`Lanes3`] blocks, each
+//! leaf's in blocks of its own (padded with infinities: leaf `l` owns blocks
+//! `l·B .. (l + 1)·B`, B = leaf size / [`LANES`]), so that a leaf's squared distances are
+//! computed [`LANES`] at a time in SIMD registers from one contiguous stretch of memory and
+//! only the items within the search bound are read.
 //!
 //! Why buckets: the earlier tree (every node an item, leaves of 12) computed a distance at
 //! every inner node of the descent, one at a time; profiles of the final gather and of Jensen's
@@ -28,6 +30,9 @@
 //! - [`KdTree::nearest_where`]: the nearest item passing a predicate — Christensen's lookup of
 //!   the nearest photon with a similar normal [Christensen 1999, §2.2].
 //! - [`KdTree::for_each_within`]: every item within a radius, in no particular order.
+//! - [`KdTree::search_blocks`]: the search itself, handing whole leaf blocks to the caller,
+//!   for queries that test a payload laid out as the positions are ([`KdTree::lanes_of`]) —
+//!   [`super::facing::FacingTree`] tests normals so, eight at a time.
 //!
 //! Radii are inclusive: an item at distance exactly `max_radius` is found. Squared distances
 //! are (dx² + dy²) + dz², in this order, as glam's `length_squared` computes them.
@@ -87,13 +92,54 @@ pub struct Neighbour {
     pub dist2: f32,
 }
 
+/// A vector per item for [`LANES`] items, one array per coordinate (32-byte aligned, so that
+/// each array is one SIMD load).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(32))]
+pub struct Lanes3 {
+    pub x: [f32; LANES],
+    pub y: [f32; LANES],
+    pub z: [f32; LANES],
+}
+
+impl Lanes3 {
+    pub const fn splat(v: f32) -> Self {
+        Self {
+            x: [v; LANES],
+            y: [v; LANES],
+            z: [v; LANES],
+        }
+    }
+
+    fn set(&mut self, lane: usize, v: Vec3) {
+        (self.x[lane], self.y[lane], self.z[lane]) = (v.x, v.y, v.z);
+    }
+
+    /// The lanes' dot products with `n`, summed in glam's order ((x + y) + z), so that they
+    /// equal `Vec3::dot` bit for bit.
+    #[inline]
+    pub fn dot(&self, n: Vec3) -> f32x8 {
+        let c = |a: [f32; LANES], q: f32| f32x8::from(a) * f32x8::splat(q);
+        (c(self.x, n.x) + c(self.y, n.y)) + c(self.z, n.z)
+    }
+
+    /// The lanes' squared distances to `p`, as glam's `length_squared` of the difference.
+    #[inline]
+    pub fn distance2(&self, p: Vec3) -> f32x8 {
+        let d = |a: [f32; LANES], q: f32| f32x8::from(a) - f32x8::splat(q);
+        let (dx, dy, dz) = (d(self.x, p.x), d(self.y, p.y), d(self.z, p.z));
+        (dx * dx + dy * dy) + dz * dz
+    }
+}
+
 /// The tree; see the module doc.
 #[derive(Clone, Debug)]
 pub struct KdTree<T> {
     items: Vec<T>,
-    /// Item positions per axis, in item order, padded with [`LANES`] infinities so that a leaf's
-    /// batch can always be loaded whole.
-    coords: [Vec<f32>; 3],
+    /// Item positions, [`KdTree::blocks_per_leaf`] blocks per leaf in leaf order, the lanes
+    /// past a leaf's items at infinity.
+    blocks: Vec<Lanes3>,
+    blocks_per_leaf: u32,
     /// Split plane of each inner node (heap order): its coordinate and axis (0, 1, 2). Every
     /// leaf lies below the last of them, at the same depth.
     planes: Vec<(f32, u32)>,
@@ -142,16 +188,14 @@ impl<T: KdPoint + Send> KdTree<T> {
             todo.push((2 * node + 1, lo, mid));
             todo.push((2 * node + 2, mid, hi));
         }
-        let coords = [0, 1, 2].map(|a| {
-            let mut c: Vec<f32> = items.iter().map(|it| it.position()[a]).collect();
-            c.resize(items.len() + LANES, f32::INFINITY);
-            c
-        });
-        Self {
+        let mut tree = Self {
             items,
-            coords,
+            blocks: Vec::new(),
+            blocks_per_leaf: leaf.div_ceil(LANES) as u32,
             planes: node_planes,
-        }
+        };
+        tree.blocks = tree.lanes_of(KdPoint::position, f32::INFINITY);
+        tree
     }
 }
 
@@ -231,9 +275,47 @@ impl<T: KdPoint> KdTree<T> {
         self.items.is_empty()
     }
 
+    /// Positions of one block of [`KdTree::search_blocks`].
+    #[inline]
+    pub fn block(&self, block: usize) -> &Lanes3 {
+        &self.blocks[block]
+    }
+
     /// Heap bytes used by the tree beyond the items themselves.
     pub fn overhead_bytes(&self) -> usize {
-        self.coords.iter().map(|c| c.len() * 4).sum::<usize>() + self.planes.len() * 8
+        self.blocks.len() * size_of::<Lanes3>() + self.planes.len() * 8
+    }
+
+    /// Item ranges of the leaves, in leaf order (leaf `l` is node `inner + l`).
+    fn leaf_ranges(&self) -> Vec<(u32, u32)> {
+        let inner = self.planes.len();
+        let mut ranges = vec![(0, 0); inner + 1];
+        let mut todo = vec![(0usize, 0u32, self.items.len() as u32)];
+        while let Some((node, lo, hi)) = todo.pop() {
+            if node >= inner {
+                ranges[node - inner] = (lo, hi);
+                continue;
+            }
+            let mid = lo + (hi - lo) / 2;
+            todo.push((2 * node + 1, lo, mid));
+            todo.push((2 * node + 2, mid, hi));
+        }
+        ranges
+    }
+
+    /// A vector per item (`value`) laid out as the tree lays out positions: the blocks of
+    /// leaf `l` are `l·B .. (l + 1)·B`, lanes past the leaf's items set to `pad`. For payloads
+    /// a query tests [`LANES`] at a time beside the distances (see [`KdTree::search_blocks`]).
+    pub fn lanes_of(&self, value: impl Fn(&T) -> Vec3, pad: f32) -> Vec<Lanes3> {
+        let per_leaf = self.blocks_per_leaf as usize;
+        let ranges = self.leaf_ranges();
+        let mut blocks = vec![Lanes3::splat(pad); ranges.len() * per_leaf];
+        for (leaf, &(lo, hi)) in ranges.iter().enumerate() {
+            for (j, item) in self.items[lo as usize..hi as usize].iter().enumerate() {
+                blocks[leaf * per_leaf + j / LANES].set(j % LANES, value(item));
+            }
+        }
+        blocks
     }
 
     /// Core of every query: visits, nearest subtrees first, every item whose squared distance
@@ -241,6 +323,17 @@ impl<T: KdPoint> KdTree<T> {
     /// and squared distance and returns the new bound (it may only shrink).
     #[inline]
     fn search(&self, p: Vec3, bound2: f32, mut visit: impl FnMut(u32, f32) -> f32) {
+        self.search_blocks(p, bound2, |block, start, len, bound2| {
+            self.visit_block(p, block, start, len, bound2, &mut visit)
+        });
+    }
+
+    /// The search itself: calls `leaf(block, start, len, bound2)` for every block of a leaf
+    /// whose cell is within the bound, nearest leaves first — `block` indexes
+    /// [`KdTree::lanes_of`]'s layout, its lanes `0..len` hold items `start..start + len` —
+    /// and takes the bound it returns (it may only shrink).
+    #[inline]
+    pub fn search_blocks(&self, p: Vec3, bound2: f32, mut leaf: impl FnMut(usize, u32, u32, f32) -> f32) {
         let mut bound2 = bound2;
         if self.items.is_empty() || bound2.is_nan() || bound2 < 0.0 {
             return;
@@ -271,33 +364,36 @@ impl<T: KdPoint> KdTree<T> {
                 top += (far2 <= bound2) as usize;
                 (node, lo, hi) = (2 * node + 1 + right as u32, near_lo, near_hi);
             }
-            bound2 = self.visit_leaf(p, lo, hi, bound2, &mut visit);
+            let first = (node as usize - inner) * self.blocks_per_leaf as usize;
+            for (b, start) in (lo..hi).step_by(LANES).enumerate() {
+                bound2 = leaf(first + b, start, (hi - start).min(LANES as u32), bound2);
+            }
         }
     }
 
-    /// Distances from `p` to the leaf `lo..hi` ([`LANES`] at once), then `visit` for those within
-    /// the bound, in item order; returns the bound after the visits.
+    /// Distances from `p` to the items of one block ([`LANES`] at once), then `visit` for
+    /// those within the bound, in item order; returns the bound after the visits.
     #[inline]
-    fn visit_leaf(&self, p: Vec3, lo: u32, hi: u32, mut bound2: f32, visit: &mut impl FnMut(u32, f32) -> f32) -> f32 {
-        for start in (lo..hi).step_by(LANES) {
-            let (at, len) = (start as usize, (hi - start).min(LANES as u32));
-            let lane = |axis: usize, q: f32| {
-                let c: [f32; LANES] = self.coords[axis][at..at + LANES].try_into().expect("padded");
-                f32x8::from(c) - f32x8::splat(q)
-            };
-            let (dx, dy, dz) = (lane(0, p.x), lane(1, p.y), lane(2, p.z));
-            let d2 = (dx * dx + dy * dy) + dz * dz;
-            let mut within = d2.simd_le(f32x8::splat(bound2)).to_bitmask() & ((1u32 << len) - 1);
-            if within == 0 {
-                continue;
-            }
-            let d2 = d2.to_array();
-            while within != 0 {
-                let i = within.trailing_zeros() as usize;
-                within &= within - 1;
-                if d2[i] <= bound2 {
-                    bound2 = visit(start + i as u32, d2[i]);
-                }
+    fn visit_block(
+        &self,
+        p: Vec3,
+        block: usize,
+        start: u32,
+        len: u32,
+        mut bound2: f32,
+        visit: &mut impl FnMut(u32, f32) -> f32,
+    ) -> f32 {
+        let d2 = self.blocks[block].distance2(p);
+        let mut within = d2.simd_le(f32x8::splat(bound2)).to_bitmask() & ((1u32 << len) - 1);
+        if within == 0 {
+            return bound2;
+        }
+        let d2 = d2.to_array();
+        while within != 0 {
+            let i = within.trailing_zeros() as usize;
+            within &= within - 1;
+            if d2[i] <= bound2 {
+                bound2 = visit(start + i as u32, d2[i]);
             }
         }
         bound2

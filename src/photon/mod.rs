@@ -28,6 +28,7 @@
 //! photon distribution figure a strategy returns.
 
 pub mod estimate;
+pub mod facing;
 pub mod irradiance;
 pub mod irradiance_cache;
 pub mod kdtree;
@@ -39,6 +40,7 @@ pub mod trace;
 pub(crate) mod test_scenes;
 
 pub use estimate::{Estimate, EstimateParams, Filter};
+pub use facing::FacingTree;
 pub use irradiance::{IrradianceMap, precompute_irradiance};
 pub use kdtree::{KdPoint, KdTree, Neighbour};
 pub use record::{Photon, Rgbe, flags};

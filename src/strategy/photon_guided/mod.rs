@@ -83,7 +83,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::params::{Params, Range};
-use crate::photon::{CausticStorage, KdPoint, KdTree, Photon, TraceParams, trace_photons};
+use crate::photon::{CausticStorage, FacingTree, KdPoint, KdTree, Photon, TraceParams, trace_photons};
 use crate::resources;
 use crate::sampling::photon_grid::{EmptyCells, QuantizedGrids};
 use crate::scene::Scene;
@@ -173,12 +173,12 @@ pub struct PdfRecord {
 }
 
 /// The precomputed pdfs: their keys in a kd-tree of their own (the per-vertex nearest-record
-/// search reads positions from the tree's own arrays, and the key for the normal test and the
-/// frame) and, indexed by the key's `id`, the grids stored compactly (one or two cache lines
-/// per vertex).
+/// search tests positions and normals eight at a time from the tree's own arrays, then reads
+/// the key for the frame) and, indexed by the key's `id`, the grids stored compactly (one or
+/// two cache lines per vertex).
 #[derive(Clone, Debug)]
 pub struct PdfRecords {
-    pub tree: KdTree<PdfRecord>,
+    pub tree: FacingTree<PdfRecord>,
     pub grids: QuantizedGrids,
 }
 

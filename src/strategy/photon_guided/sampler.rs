@@ -7,7 +7,7 @@ use super::*;
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::color::luminance;
 use crate::geometry::Frame;
-use crate::photon::{KdTree, Neighbour};
+use crate::photon::{FacingTree, KdTree, Neighbour};
 use crate::sampling::Rng;
 use crate::sampling::photon_grid::{PhotonGrid, QuantizedGrids};
 use crate::scene::{Scene, SurfaceHit};
@@ -43,7 +43,7 @@ pub fn precompute_pdfs(map: &KdTree<GuidePhoton>, params: &PhotonGuidedParams, e
     let mut grids = QuantizedGrids::new(params.grid[0], params.grid[1]);
     built.iter().for_each(|(_, grid)| grids.push(grid));
     PdfRecords {
-        tree: KdTree::build_for_nearest(keys.collect()),
+        tree: FacingTree::build(keys.collect(), |r: &PdfRecord| r.normal),
         grids,
     }
 }
@@ -121,7 +121,7 @@ impl GridSampler<'_> {
         let n = if flip { -hit.frame.n } else { hit.frame.n };
         let found = records
             .tree
-            .nearest_where(hit.p, self.params.max_radius, |r| r.normal.dot(n) > pre.normal_dot)?;
+            .nearest_facing(hit.p, n, pre.normal_dot, self.params.max_radius)?;
         let record = &records.tree.items()[found.index as usize];
         let n_local = if flip { -Vec3::Z } else { Vec3::Z };
         Some(GuidedVertex::Precomputed {
