@@ -176,9 +176,8 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
 /// Photon tracing (200 000 paths), then k = 50 nearest queries at the first hits of camera
 /// rays and Jensen grids built from their photons: (photons/s, stored, queries/s, grids/s).
 fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
-    use crate::photon::KdTree;
     use crate::photon::{PhotonMap, TraceParams, trace_photons};
-    use crate::strategy::photon_guided::{GridSampler, GuidePhoton, PhotonGuidedParams};
+    use crate::strategy::photon_guided::{GridSampler, GuideMap, GuidePhoton, PhotonGuidedParams};
     let params = TraceParams {
         photons: 200_000,
         ..TraceParams::default()
@@ -208,7 +207,7 @@ fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
     std::hint::black_box(found);
     // Jensen's per-vertex pdf exactly as `photon_guided` builds it (its defaults: N = 50,
     // unbounded radius, 4 × 16 cells), from the same photons decoded once as it does.
-    let guide = KdTree::build(map.photons().iter().map(GuidePhoton::decoded).collect());
+    let guide = GuideMap::build(map.photons().iter().map(GuidePhoton::decoded).collect());
     let params = PhotonGuidedParams::default();
     let sampler = GridSampler {
         map: &guide,

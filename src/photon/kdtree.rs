@@ -250,15 +250,15 @@ fn from_order_key(key: u32) -> f32 {
     f32::from_bits(key ^ (!(((key as i32) >> 31) as u32) | 0x8000_0000))
 }
 
-/// Keeps the `k` smallest of `found` (by `dist2`), the largest of them last. The k-nearest
+/// Moves the `k` smallest of `found` (by `dist2`) to its front, the largest of them at
+/// index k − 1. The k-nearest
 /// search collects candidates unsorted and calls this whenever it holds 2k: amortised O(1) per
 /// candidate without the unpredictable branches of a heap's sift (a bounded max-heap was 25 %
 /// of a k = 50 search's profile).
 #[inline]
-fn keep_k_nearest(found: &mut Vec<Neighbour>, k: usize) {
+fn keep_k_nearest(found: &mut [Neighbour], k: usize) {
     // Squared distances are ≥ 0 and never NaN here, so their bits order as they do.
     found.select_nth_unstable_by_key(k - 1, |n| n.dist2.to_bits());
-    found.truncate(k);
 }
 
 impl<T: KdPoint> KdTree<T> {
@@ -433,33 +433,67 @@ impl<T: KdPoint> KdTree<T> {
         mut filter: impl FnMut(&T) -> bool,
         out: &mut Vec<Neighbour>,
     ) {
+        self.k_nearest_masked(p, k, max_radius, out, |_, start, within| {
+            let (mut keep, mut lanes) = (0, within);
+            while lanes != 0 {
+                let i = lanes.trailing_zeros();
+                lanes &= lanes - 1;
+                keep |= (filter(&self.items[(start + i) as usize]) as u32) << i;
+            }
+            keep
+        });
+    }
+
+    /// [`KdTree::k_nearest_into`] with the filter applied to a whole block at once:
+    /// `mask(block, start, within)` gets a block of [`KdTree::search_blocks`] and the bit mask
+    /// of its lanes within the search bound, and returns the mask of those that pass (for
+    /// payloads laid out by [`KdTree::lanes_of`] and tested in SIMD).
+    pub fn k_nearest_masked(
+        &self,
+        p: Vec3,
+        k: usize,
+        max_radius: f32,
+        out: &mut Vec<Neighbour>,
+        mut mask: impl FnMut(usize, u32, u32) -> u32,
+    ) {
         out.clear();
         if k == 0 {
             return;
         }
         let max_r2 = max_radius * max_radius;
-        // Candidates within the bound are collected unsorted; the bound is the k-th nearest
-        // distance known so far, found by selection each time 2k candidates are held.
-        let room = k.saturating_mul(2).min(self.items.len().max(1));
-        out.reserve(room);
-        self.search(p, max_r2, |index, dist2| {
-            if filter(&self.items[index as usize]) {
-                out.push(Neighbour { index, dist2 });
-                if out.len() == k.saturating_mul(2) {
-                    keep_k_nearest(out, k);
-                } else if out.len() == k {
-                    // The first k: their largest distance, kept at index k − 1, bounds the rest.
-                    let far = (0..k)
-                        .max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2))
-                        .expect("k > 0");
-                    out.swap(far, k - 1);
-                }
+        // Candidates within the bound are appended unsorted, a block at a time without a branch
+        // per lane (every lane is written, the count advances by the passing ones); the bound
+        // is the k-th nearest held, found by selection once k are held and then whenever 2k
+        // are.
+        let room = k.saturating_mul(2).min(self.items.len());
+        out.resize(room + LANES, Neighbour { index: 0, dist2: 0.0 });
+        let (mut count, mut bounded) = (0usize, false);
+        self.search_blocks(p, max_r2, |block, start, len, bound2| {
+            let d2 = self.blocks[block].distance2(p);
+            let within = d2.simd_le(f32x8::splat(bound2)).to_bitmask() & ((1u32 << len) - 1);
+            if within == 0 {
+                return bound2;
             }
-            if out.len() >= k { out[k - 1].dist2 } else { max_r2 }
+            let keep = mask(block, start, within) & within;
+            for (i, dist2) in d2.to_array().into_iter().enumerate() {
+                out[count] = Neighbour {
+                    index: start + i as u32,
+                    dist2,
+                };
+                count += (keep >> i) as usize & 1;
+            }
+            if count >= k && (count >= room || !bounded) {
+                keep_k_nearest(&mut out[..count], k);
+                (count, bounded) = (k, true);
+                return out[k - 1].dist2;
+            }
+            bound2
         });
-        if out.len() > k {
-            keep_k_nearest(out, k);
+        if count > k {
+            keep_k_nearest(&mut out[..count], k);
+            count = k;
         }
+        out.truncate(count);
         if let Some(far) = (0..out.len()).max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2)) {
             out.swap(0, far);
         }

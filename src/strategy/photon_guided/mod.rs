@@ -68,10 +68,12 @@
 //! ([`crate::sampling::photon_grid`]) and the path tracer it plugs into ([`super::path`]) live
 //! elsewhere.
 
+mod guide_map;
 mod sampler;
 #[cfg(test)]
 mod tests;
 
+pub use guide_map::GuideMap;
 pub use sampler::*;
 
 use super::Declared;
@@ -83,7 +85,7 @@ use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::light::{LightSampling, LightSelection, SphereSampling};
 use crate::params::{Params, Range};
-use crate::photon::{CausticStorage, FacingTree, KdPoint, KdTree, Photon, TraceParams, trace_photons};
+use crate::photon::{CausticStorage, FacingTree, KdPoint, Photon, TraceParams, trace_photons};
 use crate::resources;
 use crate::sampling::photon_grid::{EmptyCells, QuantizedGrids};
 use crate::scene::Scene;
@@ -191,7 +193,7 @@ impl KdPoint for PdfRecord {
 /// The photon-guided strategy; [`Strategy::prepare`] traces the indirect photon map.
 pub struct PhotonGuided {
     pub params: PhotonGuidedParams,
-    map: Option<KdTree<GuidePhoton>>,
+    map: Option<GuideMap>,
     records: Option<PdfRecords>,
 }
 
@@ -214,14 +216,14 @@ impl PhotonGuided {
     }
 
     /// The photons built by `prepare`, if any, in their kd-tree.
-    pub fn map(&self) -> Option<&KdTree<GuidePhoton>> {
+    pub fn map(&self) -> Option<&GuideMap> {
         self.map.as_ref()
     }
 }
 
 /// Traces photon paths until `stored` indirect photons are stored and keeps the first
 /// `stored` (in path order). Returns the photons and the number of paths emitted.
-fn trace_indirect(scene: &Scene, stored: u64, seed: u64) -> Result<KdTree<GuidePhoton>> {
+fn trace_indirect(scene: &Scene, stored: u64, seed: u64) -> Result<GuideMap> {
     let mut params = TraceParams {
         photons: stored,
         store_direct: false,
@@ -233,7 +235,7 @@ fn trace_indirect(scene: &Scene, stored: u64, seed: u64) -> Result<KdTree<GuideP
         let got = traced.global.len() as u64;
         if got >= stored {
             let photons = traced.global[..stored as usize].iter().map(GuidePhoton::decoded);
-            return Ok(KdTree::build(photons.collect()));
+            return Ok(GuideMap::build(photons.collect()));
         }
         // Emit enough more paths, with 10 % to spare; the first paths are the same ones again.
         let next = if got == 0 {

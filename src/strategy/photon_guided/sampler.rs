@@ -7,7 +7,7 @@ use super::*;
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::color::luminance;
 use crate::geometry::Frame;
-use crate::photon::{FacingTree, KdTree, Neighbour};
+use crate::photon::{FacingTree, Neighbour};
 use crate::sampling::Rng;
 use crate::sampling::photon_grid::{PhotonGrid, QuantizedGrids};
 use crate::scene::{Scene, SurfaceHit};
@@ -18,7 +18,7 @@ use std::cell::RefCell;
 
 /// Jensen's pdf at every `every`-th photon of `map` (in kd-tree order, so the set depends on
 /// the seed only), each built for the side its photon arrived on.
-pub fn precompute_pdfs(map: &KdTree<GuidePhoton>, params: &PhotonGuidedParams, every: usize) -> PdfRecords {
+pub fn precompute_pdfs(map: &GuideMap, params: &PhotonGuidedParams, every: usize) -> PdfRecords {
     let sampler = GridSampler {
         map,
         params,
@@ -50,7 +50,7 @@ pub fn precompute_pdfs(map: &KdTree<GuidePhoton>, params: &PhotonGuidedParams, e
 
 /// Direction choice with Jensen's grid at Lambertian vertices.
 pub struct GridSampler<'a> {
-    pub map: &'a KdTree<GuidePhoton>,
+    pub map: &'a GuideMap,
     pub params: &'a PhotonGuidedParams,
     /// Precomputed pdfs (`precomputed_pdfs`), if any.
     pub records: Option<&'a PdfRecords>,
@@ -96,13 +96,8 @@ impl GridSampler<'_> {
         let photons = self.map.items();
         NEIGHBOURS.with(|buf| {
             let mut found = buf.borrow_mut();
-            self.map.k_nearest_into(
-                p,
-                self.params.nearest,
-                self.params.max_radius,
-                |ph| ph.direction.dot(n) > 0.0 && ph.normal.dot(n) > 0.0,
-                &mut found,
-            );
+            self.map
+                .k_nearest_on_side(p, n, self.params.nearest, self.params.max_radius, &mut found);
             let dirs = found.iter().map(|nb| {
                 let ph = &photons[nb.index as usize];
                 let local = frame.to_local(ph.direction);

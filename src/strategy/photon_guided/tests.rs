@@ -11,7 +11,7 @@ use crate::scene::SurfaceHit;
 use crate::strategy::path::DirectionSampler;
 
 /// A glossy vertex at the origin (normal +z) with photons arriving mostly from one side.
-fn glossy_vertex() -> (KdTree<GuidePhoton>, SurfaceHit, Bsdf, Vec3) {
+fn glossy_vertex() -> (GuideMap, SurfaceHit, Bsdf, Vec3) {
     let mut rng = Rng::for_task(11, [0, 0, 0]);
     let lobe = Vec3::new(-0.6, 0.2, 0.77).normalize();
     let photons = (0..200)
@@ -44,7 +44,7 @@ fn glossy_vertex() -> (KdTree<GuidePhoton>, SurfaceHit, Bsdf, Vec3) {
         exponent: 20.0,
     });
     (
-        KdTree::build(photons),
+        GuideMap::build(photons),
         hit,
         bsdf,
         Vec3::new(0.5, -0.1, 0.86).normalize(),
@@ -53,7 +53,7 @@ fn glossy_vertex() -> (KdTree<GuidePhoton>, SurfaceHit, Bsdf, Vec3) {
 
 /// Photons at the origin's neighbourhood on both sides of a surface with normal `n`: those
 /// on the front arrive mostly from one direction, those on the back from another.
-fn two_sided_photons(n: Vec3) -> KdTree<GuidePhoton> {
+fn two_sided_photons(n: Vec3) -> GuideMap {
     let mut rng = Rng::for_task(12, [0, 0, 0]);
     let frame = Frame::from_normal(n);
     let lobes = [Vec3::new(0.5, 0.3, 0.81), Vec3::new(-0.4, 0.6, 0.69)];
@@ -75,7 +75,7 @@ fn two_sided_photons(n: Vec3) -> KdTree<GuidePhoton> {
             }
         })
         .collect();
-    KdTree::build(photons)
+    GuideMap::build(photons)
 }
 
 fn precomputing_params() -> PhotonGuidedParams {
