@@ -178,16 +178,12 @@ impl<T: KdPoint + Send> KdTree<T> {
         build_range(&mut items, &mut planes, depth);
         let inner = (1usize << depth) - 1;
         let mut node_planes = vec![(0u32, 0u32); inner];
-        let mut todo = vec![(0usize, 0usize, items.len())];
-        while let Some((node, lo, hi)) = todo.pop() {
-            if node >= inner {
-                continue;
+        for_each_node(inner, items.len() as u32, |node, lo, hi| {
+            if node < inner {
+                let mid = (lo + (hi - lo) / 2) as usize;
+                node_planes[node] = (order_key(planes[mid].0), planes[mid].1 as u32);
             }
-            let mid = lo + (hi - lo) / 2;
-            node_planes[node] = (order_key(planes[mid].0), planes[mid].1 as u32);
-            todo.push((2 * node + 1, lo, mid));
-            todo.push((2 * node + 2, mid, hi));
-        }
+        });
         let mut tree = Self {
             items,
             blocks: Vec::new(),
@@ -236,6 +232,20 @@ fn build_range<T: KdPoint + Send>(items: &mut [T], planes: &mut [(f32, u8)], lev
     }
 }
 
+/// Calls `visit(node, lo, hi)` for every node of the complete tree with `inner` inner nodes over
+/// `n` items (leaves are the nodes from `inner` on), with the item range the descent gives it.
+fn for_each_node(inner: usize, n: u32, mut visit: impl FnMut(usize, u32, u32)) {
+    let mut todo = vec![(0usize, 0u32, n)];
+    while let Some((node, lo, hi)) = todo.pop() {
+        visit(node, lo, hi);
+        if node < inner {
+            let mid = lo + (hi - lo) / 2;
+            todo.push((2 * node + 1, lo, mid));
+            todo.push((2 * node + 2, mid, hi));
+        }
+    }
+}
+
 /// The float's bits as an integer that orders as the float does, for every float but NaN
 /// (−0 taken as +0, so that equal floats have equal keys): a ≥ b ⇔ key(a) ≥ key(b).
 #[inline]
@@ -251,10 +261,9 @@ fn from_order_key(key: u32) -> f32 {
 }
 
 /// Moves the `k` smallest of `found` (by `dist2`) to its front, the largest of them at
-/// index k − 1. The k-nearest
-/// search collects candidates unsorted and calls this whenever it holds 2k: amortised O(1) per
-/// candidate without the unpredictable branches of a heap's sift (a bounded max-heap was 25 %
-/// of a k = 50 search's profile).
+/// index k − 1. The k-nearest search collects candidates unsorted and calls this once it holds
+/// k and then whenever it holds 2k: amortised O(1) per candidate without the unpredictable
+/// branches of a heap's sift (a bounded max-heap was 25 % of a k = 50 search's profile).
 #[inline]
 fn keep_k_nearest(found: &mut [Neighbour], k: usize) {
     // Squared distances are ≥ 0 and never NaN here, so their bits order as they do.
@@ -300,35 +309,20 @@ impl<T: KdPoint> KdTree<T> {
         self.blocks.len() * size_of::<Lanes3>() + self.planes.len() * 8
     }
 
-    /// Item ranges of the leaves, in leaf order (leaf `l` is node `inner + l`).
-    fn leaf_ranges(&self) -> Vec<(u32, u32)> {
-        let inner = self.planes.len();
-        let mut ranges = vec![(0, 0); inner + 1];
-        let mut todo = vec![(0usize, 0u32, self.items.len() as u32)];
-        while let Some((node, lo, hi)) = todo.pop() {
-            if node >= inner {
-                ranges[node - inner] = (lo, hi);
-                continue;
-            }
-            let mid = lo + (hi - lo) / 2;
-            todo.push((2 * node + 1, lo, mid));
-            todo.push((2 * node + 2, mid, hi));
-        }
-        ranges
-    }
-
     /// A vector per item (`value`) laid out as the tree lays out positions: the blocks of
     /// leaf `l` are `l·B .. (l + 1)·B`, lanes past the leaf's items set to `pad`. For payloads
     /// a query tests [`LANES`] at a time beside the distances (see [`KdTree::search_blocks`]).
     pub fn lanes_of(&self, value: impl Fn(&T) -> Vec3, pad: f32) -> Vec<Lanes3> {
-        let per_leaf = self.blocks_per_leaf as usize;
-        let ranges = self.leaf_ranges();
-        let mut blocks = vec![Lanes3::splat(pad); ranges.len() * per_leaf];
-        for (leaf, &(lo, hi)) in ranges.iter().enumerate() {
-            for (j, item) in self.items[lo as usize..hi as usize].iter().enumerate() {
-                blocks[leaf * per_leaf + j / LANES].set(j % LANES, value(item));
+        let (inner, per_leaf) = (self.planes.len(), self.blocks_per_leaf as usize);
+        let mut blocks = vec![Lanes3::splat(pad); (inner + 1) * per_leaf];
+        for_each_node(inner, self.items.len() as u32, |node, lo, hi| {
+            if node >= inner {
+                let first = (node - inner) * per_leaf;
+                for (j, item) in self.items[lo as usize..hi as usize].iter().enumerate() {
+                    blocks[first + j / LANES].set(j % LANES, value(item));
+                }
             }
-        }
+        });
         blocks
     }
 
@@ -392,6 +386,14 @@ impl<T: KdPoint> KdTree<T> {
         }
     }
 
+    /// Squared distances from `p` to the items of a block, and the bit mask of its first `len`
+    /// lanes within `bound2`.
+    #[inline]
+    fn within_bound(&self, p: Vec3, block: usize, len: u32, bound2: f32) -> (f32x8, u32) {
+        let d2 = self.blocks[block].distance2(p);
+        (d2, d2.simd_le(f32x8::splat(bound2)).to_bitmask() & ((1u32 << len) - 1))
+    }
+
     /// Distances from `p` to the items of one block ([`LANES`] at once), then `visit` for
     /// those within the bound, in item order; returns the bound after the visits.
     #[inline]
@@ -404,8 +406,7 @@ impl<T: KdPoint> KdTree<T> {
         mut bound2: f32,
         visit: &mut impl FnMut(u32, f32) -> f32,
     ) -> f32 {
-        let d2 = self.blocks[block].distance2(p);
-        let mut within = d2.simd_le(f32x8::splat(bound2)).to_bitmask() & ((1u32 << len) - 1);
+        let (d2, mut within) = self.within_bound(p, block, len, bound2);
         if within == 0 {
             return bound2;
         }
@@ -469,8 +470,7 @@ impl<T: KdPoint> KdTree<T> {
         out.resize(room + LANES, Neighbour { index: 0, dist2: 0.0 });
         let (mut count, mut bounded) = (0usize, false);
         self.search_blocks(p, max_r2, |block, start, len, bound2| {
-            let d2 = self.blocks[block].distance2(p);
-            let within = d2.simd_le(f32x8::splat(bound2)).to_bitmask() & ((1u32 << len) - 1);
+            let (d2, within) = self.within_bound(p, block, len, bound2);
             if within == 0 {
                 return bound2;
             }
