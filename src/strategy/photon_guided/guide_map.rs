@@ -8,17 +8,28 @@
 //! one thread, cornell-box photons). The photons found are the same set.
 
 use super::GuidePhoton;
-use crate::photon::kdtree::Lanes3;
+use crate::photon::kdtree::{LANES, Lanes3};
 use crate::photon::{KdTree, Neighbour};
 use glam::Vec3;
 use wide::f32x8;
 
-/// Guiding photons in a kd-tree, with their normals and directions in SIMD blocks.
+/// Guiding photons in a kd-tree, with their normals, directions and fluxes in SIMD blocks.
 #[derive(Clone, Debug)]
 pub struct GuideMap {
     tree: KdTree<GuidePhoton>,
     normals: Vec<Lanes3>,
-    directions: Vec<Lanes3>,
+    directions: Vec<DirectionsAndFluxes>,
+}
+
+/// A block's incoming directions ω_p and, in the same cache line as their z, the flux
+/// luminances ΔΦ: the grid's build reads both for the photons found, from blocks the side
+/// test has just loaded (reading them from the photons, then from an array of their own, was
+/// a cache miss per photon: half of a grid's build).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(128))]
+struct DirectionsAndFluxes {
+    direction: Lanes3,
+    flux: [f32; LANES],
 }
 
 impl GuideMap {
@@ -27,12 +38,27 @@ impl GuideMap {
         let tree = KdTree::build(photons);
         // Padding lanes: zero vectors, which fail the strict side test.
         let normals = tree.lanes_of(|p| p.normal, 0.0);
-        let directions = tree.lanes_of(|p| p.direction, 0.0);
+        let fluxes = tree.lanes_of(|p| Vec3::new(p.flux, 0.0, 0.0), 0.0);
+        let directions = (tree.lanes_of(|p| p.direction, 0.0).into_iter().zip(fluxes))
+            .map(|(direction, flux)| DirectionsAndFluxes {
+                direction,
+                flux: flux.x,
+            })
+            .collect();
         Self {
             tree,
             normals,
             directions,
         }
+    }
+
+    /// The incoming direction ω_p and flux luminance ΔΦ of the photon in `slot` (a
+    /// [`Neighbour::index`] of [`GuideMap::k_nearest_on_side`]).
+    #[inline]
+    pub fn direction_and_flux(&self, slot: u32) -> (Vec3, f32) {
+        let (block, lane) = (slot as usize / LANES, slot as usize % LANES);
+        let DirectionsAndFluxes { direction: d, flux } = &self.directions[block];
+        (Vec3::new(d.x[lane], d.y[lane], d.z[lane]), flux[lane])
     }
 
     /// The photons, in tree order; [`Neighbour::index`] indexes this slice.
@@ -50,11 +76,13 @@ impl GuideMap {
 
     /// The (up to) `k` nearest photons within `max_radius` of `p` that arrived on the side the
     /// unit normal `n` faces: ω_p · n > 0 and n_p · n > 0, computed as `Vec3::dot` computes
-    /// them. Written to `out` as [`KdTree::k_nearest_into`] writes it.
+    /// them. Written to `out` as [`KdTree::k_nearest_into`] writes it, but each photon named by
+    /// its slot ([`KdTree::k_nearest_slots`]; read it with [`GuideMap::direction_and_flux`]).
     pub fn k_nearest_on_side(&self, p: Vec3, n: Vec3, k: usize, max_radius: f32, out: &mut Vec<Neighbour>) {
         let zero = f32x8::splat(0.0);
-        self.tree.k_nearest_masked(p, k, max_radius, out, |block, _, _| {
-            let facing = self.directions[block].dot(n).simd_gt(zero) & self.normals[block].dot(n).simd_gt(zero);
+        self.tree.k_nearest_slots(p, k, max_radius, out, |block, _, _| {
+            let facing =
+                self.directions[block].direction.dot(n).simd_gt(zero) & self.normals[block].dot(n).simd_gt(zero);
             facing.to_bitmask()
         });
     }
@@ -105,7 +133,17 @@ mod tests {
                 d
             };
             assert_eq!(distances(&got), distances(&want), "query {q}");
-            assert!(got.iter().all(|nb| side(&map.items()[nb.index as usize])));
+            // Each slot holds the photon it reports: its distance, side and flux.
+            for nb in &got {
+                let (direction, flux) = map.direction_and_flux(nb.index);
+                let ph = map
+                    .items()
+                    .iter()
+                    .find(|ph| ph.direction == direction && ph.flux == flux)
+                    .expect("a slot holds a photon of the map");
+                assert_eq!(ph.position.distance_squared(p), nb.dist2);
+                assert!(side(ph), "query {q}: a photon from the wrong side");
+            }
         }
     }
 }

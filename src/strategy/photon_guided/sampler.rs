@@ -93,15 +93,14 @@ impl GridSampler<'_> {
     /// that arrived on the side it faces.
     pub(super) fn product_grid_in(&self, p: Vec3, frame: &Frame, flip: bool, f_r: impl Fn(Vec3) -> f32) -> PhotonGrid {
         let n = if flip { -frame.n } else { frame.n };
-        let photons = self.map.items();
         NEIGHBOURS.with(|buf| {
             let mut found = buf.borrow_mut();
             self.map
                 .k_nearest_on_side(p, n, self.params.nearest, self.params.max_radius, &mut found);
             let dirs = found.iter().map(|nb| {
-                let ph = &photons[nb.index as usize];
-                let local = frame.to_local(ph.direction);
-                (mirror(local, flip), f_r(local) * ph.flux)
+                let (direction, flux) = self.map.direction_and_flux(nb.index);
+                let local = frame.to_local(direction);
+                (mirror(local, flip), f_r(local) * flux)
             });
             let p = self.params;
             PhotonGrid::build(dirs, p.grid[0], p.grid[1], p.epsilon, p.empty_cells)
