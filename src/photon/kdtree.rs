@@ -152,7 +152,8 @@ pub struct KdTree<T> {
     blocks: Vec<Lanes3>,
     blocks_per_leaf: u32,
     /// Area of surface per item around each leaf (the product of its items' two largest box
-    /// extents over their count): the k-nearest search's first guess of its radius.
+    /// extents over their count; ∞, i.e. no guess, where that is 0): the k-nearest search's
+    /// first guess of its radius.
     leaf_area: Vec<f32>,
     /// Split plane of each inner node (heap order): its coordinate as an [`order_key`] and its
     /// axis (0, 1, 2). Every leaf lies below the last of them, at the same depth.
@@ -192,22 +193,23 @@ impl<T: KdPoint + Send> KdTree<T> {
         build_range(&mut items, &mut planes, depth);
         let inner = (1usize << depth) - 1;
         let mut node_planes = vec![(0u32, 0u32); inner];
+        let mut leaf_area = vec![f32::INFINITY; inner + 1];
         for_each_node(inner, items.len() as u32, |node, lo, hi| {
             if node < inner {
                 let mid = (lo + (hi - lo) / 2) as usize;
                 node_planes[node] = (order_key(planes[mid].0), planes[mid].1 as u32);
-            }
-        });
-        let mut leaf_area = vec![f32::INFINITY; inner + 1];
-        for_each_node(inner, items.len() as u32, |node, lo, hi| {
-            if node >= inner && hi > lo {
+            } else if hi > lo {
                 let (mut a, mut b) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
                 for it in &items[lo as usize..hi as usize] {
                     (a, b) = (a.min(it.position()), b.max(it.position()));
                 }
                 let mut e = (b - a).to_array();
                 e.sort_by(f32::total_cmp);
-                leaf_area[node - inner] = e[1] * e[2] / (hi - lo) as f32;
+                let area = e[1] * e[2] / (hi - lo) as f32;
+                // Coincident or collinear items give no density to guess from.
+                if area > 0.0 {
+                    leaf_area[node - inner] = area;
+                }
             }
         });
         let mut tree = Self {
@@ -512,16 +514,19 @@ impl<T: KdPoint> KdTree<T> {
         let room = k.saturating_mul(2).min(self.items.len());
         out.resize(room + LANES, Neighbour { index: 0, dist2: 0.0 });
         // First with the bound guessed from the density around the query's leaf; when fewer
-        // than k items pass within it, again with a guess grown by what was missing (× 4 when
-        // nothing passed), until the guess exceeds the radius. The k nearest are exact either
-        // way: all items within the bound were candidates.
-        let mut guess = GUESS_SCALE * k as f32 / std::f32::consts::PI;
-        let mut count = loop {
-            match self.collect_k_nearest::<SLOTS>(p, k, max_r2, guess, out, &mut mask) {
-                Ok(count) => break count,
-                Err(found) => {
-                    guess *= if found > 0 { 1.5 * k as f32 / found as f32 } else { 4.0 };
-                }
+        // than k items pass within it, once more with the guess grown by what was missing (× 4
+        // when nothing passed), then without a guess — at most three searches, also where
+        // fewer than k items pass in the whole radius. The k nearest are exact either way: all
+        // items within the bound were candidates.
+        let guess = GUESS_SCALE * k as f32 / std::f32::consts::PI;
+        let mut collect = |guess| self.collect_k_nearest::<SLOTS>(p, k, max_r2, guess, out, &mut mask);
+        let mut count = match collect(guess) {
+            Ok(count) => count,
+            Err(found) => {
+                let grown = guess * if found > 0 { 1.5 * k as f32 / found as f32 } else { 4.0 };
+                collect(grown)
+                    .or_else(|_| collect(f32::INFINITY))
+                    .expect("a search without a guess holds what passes")
             }
         };
         if count > k {

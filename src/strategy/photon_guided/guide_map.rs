@@ -61,7 +61,7 @@ impl GuideMap {
         (Vec3::new(d.x[lane], d.y[lane], d.z[lane]), flux[lane])
     }
 
-    /// The photons, in tree order; [`Neighbour::index`] indexes this slice.
+    /// The photons, in tree order (the search names them by slot, not by their index here).
     pub fn items(&self) -> &[GuidePhoton] {
         self.tree.items()
     }
