@@ -28,7 +28,8 @@
 //!   held) — Jensen's N-nearest search with the normal / back-side test of the radiance
 //!   estimate as the filter. Its first bound is guessed from the density of the query's leaf
 //!   (a disc of about 2k items of a surface that dense), searched again with a larger guess
-//!   when fewer than k pass within it, so that the candidates are few from the start;
+//!   and then without one when fewer than k pass within it, so that the candidates are few
+//!   from the start;
 //!   [`KdTree::k_nearest_slots`] names the items found by their place in the blocks, for
 //!   callers that read a payload laid out as the positions are.
 //! - [`KdTree::nearest_where`]: the nearest item passing a predicate — Christensen's lookup of
