@@ -117,6 +117,12 @@ thread_local! {
     static NEIGHBOURS: RefCell<Vec<Neighbour>> = const { RefCell::new(Vec::new()) };
 }
 
+/// The photons an estimate on the side of `n` may use: stored normal within the cone of
+/// `normal_dot`, arriving from the front (see the module doc).
+fn accept(n: Vec3, params: &EstimateParams) -> impl Fn(&Photon) -> bool + '_ {
+    move |p: &Photon| p.normal().dot(n) >= params.normal_dot && p.direction().dot(n) > 0.0
+}
+
 impl PhotonMap {
     /// Irradiance E(x) on the side of unit normal `n` (see the module doc).
     pub fn irradiance(&self, x: Vec3, n: Vec3, params: &EstimateParams) -> Estimate {
@@ -130,8 +136,11 @@ impl PhotonMap {
         self.estimate(x, n, params, f_r)
     }
 
-    /// Irradiance as [`PhotonMap::irradiance`], from the photons for which `also` holds as well
-    /// (tested only on photons near enough to enter the estimate).
+    /// Irradiance as [`PhotonMap::irradiance`], from the photons for which `also` holds as well.
+    /// `also` may be costly (a ray): it is tested only on photons that pass the normal and side
+    /// tests and are no farther than the estimate's N-th photon ([`KdTree::k_nearest_tested`]).
+    ///
+    /// [`KdTree::k_nearest_tested`]: super::kdtree::KdTree::k_nearest_tested
     pub fn irradiance_where(
         &self,
         x: Vec3,
@@ -139,26 +148,34 @@ impl PhotonMap {
         params: &EstimateParams,
         also: impl Fn(&Photon) -> bool,
     ) -> Estimate {
-        self.estimate_where(x, n, params, |_| Vec3::ONE, also)
+        self.with_found(
+            |found| {
+                self.tree()
+                    .k_nearest_tested(x, params.nearest, params.max_radius, accept(n, params), &also, found)
+            },
+            |found| self.density(found, params, |_| Vec3::ONE),
+        )
     }
 
     fn estimate(&self, x: Vec3, n: Vec3, params: &EstimateParams, f_r: impl Fn(Vec3) -> Vec3) -> Estimate {
-        self.estimate_where(x, n, params, f_r, |_| true)
+        self.with_found(
+            |found| {
+                self.tree()
+                    .k_nearest_into(x, params.nearest, params.max_radius, accept(n, params), found)
+            },
+            |found| self.density(found, params, f_r),
+        )
     }
 
-    fn estimate_where(
+    /// Runs `search` into this thread's reused neighbour buffer and `sum` over what it found.
+    fn with_found(
         &self,
-        x: Vec3,
-        n: Vec3,
-        params: &EstimateParams,
-        f_r: impl Fn(Vec3) -> Vec3,
-        also: impl Fn(&Photon) -> bool,
+        search: impl FnOnce(&mut Vec<Neighbour>),
+        sum: impl FnOnce(&[Neighbour]) -> Estimate,
     ) -> Estimate {
         let mut found = NEIGHBOURS.with(|b| std::mem::take(&mut *b.borrow_mut()));
-        let accept = |p: &Photon| p.normal().dot(n) >= params.normal_dot && p.direction().dot(n) > 0.0 && also(p);
-        self.tree()
-            .k_nearest_into(x, params.nearest, params.max_radius, accept, &mut found);
-        let result = self.density(&found, params, f_r);
+        search(&mut found);
+        let result = sum(&found);
         NEIGHBOURS.with(|b| *b.borrow_mut() = found);
         result
     }

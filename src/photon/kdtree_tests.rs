@@ -251,3 +251,70 @@ fn build_is_deterministic_across_thread_counts() {
     assert_eq!(a.items(), b.items());
     assert_eq!(a.planes, b.planes);
 }
+
+/// The two-part filter: the same k nearest as brute force over `cheap && costly`, and the
+/// costly test run at most once per item, only on items `cheap` passes, and never on one
+/// farther than the answer's farthest (or than the radius, when fewer than k pass). Costly
+/// tests that reject everything beyond a "wall" (x > 0.55), every third item, nothing, or
+/// all but a handful; queries on both sides of the wall, with and without a radius, on points
+/// with duplicates (ties at the boundary of every shell).
+#[test]
+fn k_nearest_tested_tests_only_what_the_answer_needs() {
+    for (pts, seed) in [
+        (random_points(5_000, 21, false), 21u64),
+        (random_points(3_000, 22, true), 22),
+        (vec![Vec3::splat(0.25); 300], 23),
+    ] {
+        let tree = KdTree::build(pts.clone());
+        let mut rng = Rng::for_task(seed, [2, 0, 0]);
+        let mut out = Vec::new();
+        for q in 0..400 {
+            let p = if q % 7 == 0 {
+                pts[q % pts.len()]
+            } else {
+                Vec3::new(rng.uniform(), rng.uniform() * 0.5, rng.uniform() * 2.0)
+            };
+            let k = [1usize, 8, 64, 400][q % 4];
+            let r = [f32::INFINITY, 0.15, 0.4][q % 3];
+            let cheap = |v: &Vec3| q % 2 == 0 || v.y < 0.4;
+            let rule = q % 5;
+            let costly_rule = |v: &Vec3| match rule {
+                0 | 1 => v.x <= 0.55,
+                2 => !v.x.to_bits().is_multiple_of(3),
+                3 => true,
+                _ => v.z < 0.05,
+            };
+            let calls = std::cell::RefCell::new(Vec::new());
+            let costly = |v: &Vec3| {
+                calls.borrow_mut().push(*v);
+                costly_rule(v)
+            };
+            tree.k_nearest_tested(p, k, r, cheap, costly, &mut out);
+            let want = brute_force(&pts, p, k, r, |v| cheap(v) && costly_rule(v));
+            let mut got: Vec<f32> = out.iter().map(|n| n.dist2).collect();
+            assert!(
+                got.first().is_none_or(|&f| got.iter().all(|&d| d <= f)),
+                "farthest first"
+            );
+            got.sort_unstable_by(f32::total_cmp);
+            assert_eq!(got, want, "query {q}: k {k}, r {r}, rule {rule}");
+            let limit = if want.len() == k { want[k - 1] } else { r * r };
+            let calls = calls.into_inner();
+            for v in &calls {
+                assert!(cheap(v), "query {q}: costly test of an item cheap rejects");
+                assert!((*v - p).length_squared() <= limit, "query {q}: a needless costly test");
+            }
+            // Each item once: as many calls as distinct items tested (duplicates are distinct
+            // items at one position, so count positions with multiplicity against the input).
+            let mut tested = calls.clone();
+            tested.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap());
+            let mut i = 0;
+            while i < tested.len() {
+                let same = tested[i..].iter().take_while(|v| **v == tested[i]).count();
+                let copies = pts.iter().filter(|v| **v == tested[i]).count();
+                assert!(same <= copies, "query {q}: an item tested twice");
+                i += same;
+            }
+        }
+    }
+}
