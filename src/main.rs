@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use photon_bench::error::{Error, Result};
 use photon_bench::experiment::{self, Experiment, reference};
 use photon_bench::light::{LightSelection, SphereSampling};
+use photon_bench::perf::PERF_PHOTONS;
 use photon_bench::strategy::path::{BsdfSampling, Direct, PathParams, Roulette};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -566,7 +567,7 @@ fn run_command(command: Command) -> Result<Status> {
                 r.raw_closest_rays_per_s
             );
             println!(
-                "  photons/s          {:>12.0}  ({} stored of 200000 emitted)",
+                "  photons/s          {:>12.0}  ({} stored of {PERF_PHOTONS} emitted)",
                 r.photons_per_s, r.photons_stored
             );
             println!(
@@ -591,9 +592,17 @@ fn run_command(command: Command) -> Result<Status> {
                 r.up_mutations_per_s,
                 r.mc_mutations_per_s
             );
+            // Issue 21's measure: time per stored photon of MPS over photon tracing's.
+            let traced_stored_per_s = r.photons_per_s * r.photons_stored as f64 / PERF_PHOTONS as f64;
             println!(
-                "  MPS photons/s      {:>12.0}  (stored per second of Metropolis sampling)",
-                r.mps_photons_per_s
+                "  MPS photons/s      {:>12.0}  (stored per second of Metropolis sampling; {:.1}x photon tracing's time per stored photon)",
+                r.mps_photons_per_s,
+                traced_stored_per_s / r.mps_photons_per_s
+            );
+            println!(
+                "    paper's power    {:>12.0}  (the chain alone, photon_power = \"paper\"; {:.1}x)",
+                r.mps_paper_photons_per_s,
+                traced_stored_per_s / r.mps_paper_photons_per_s
             );
             if let Some(path) = csv {
                 photon_bench::perf::append_csv(std::slice::from_ref(&r), &path)?;

@@ -61,6 +61,9 @@ pub struct PerfReport {
     /// Photons `mps` stores per second of its Metropolis sampling (defaults, importon
     /// normalisation, 200 000 steps).
     pub mps_photons_per_s: f64,
+    /// The same with `photon_power = "paper"`: the chain and its deposits alone, without the
+    /// importon density each stored photon's power is divided by (our correction).
+    pub mps_paper_photons_per_s: f64,
     pub cpu: String,
     pub git_revision: String,
 }
@@ -151,7 +154,8 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
         lp_mutations_per_s: mutations[4],
         ls_mutations_per_s: mutations[5],
         mc_mutations_per_s: mutations[6],
-        mps_photons_per_s: measure_mps_photons(scene, seed),
+        mps_photons_per_s: measure_mps_photons(scene, seed, "importon"),
+        mps_paper_photons_per_s: measure_mps_photons(scene, seed, "paper"),
         photons_per_s: photons.0,
         photons_stored: photons.1,
         knn_queries_per_s: photons.2,
@@ -175,11 +179,14 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
 
 /// Photon tracing (200 000 paths), then k = 50 nearest queries at the first hits of camera
 /// rays and Jensen grids built from their photons: (photons/s, stored, queries/s, grids/s).
+/// Photon paths emitted by `bench perf`'s photon-tracing measurement.
+pub const PERF_PHOTONS: u64 = 200_000;
+
 fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
     use crate::photon::{PhotonMap, TraceParams, trace_photons};
     use crate::strategy::photon_guided::{GridSampler, GuideMap, GuidePhoton, PhotonGuidedParams};
     let params = TraceParams {
-        photons: 200_000,
+        photons: PERF_PHOTONS,
         ..TraceParams::default()
     };
     let start = Instant::now();
@@ -291,10 +298,13 @@ fn measure_mutations(scene: &Scene, seed: u64) -> [f64; crate::metropolis::PROPO
     })
 }
 
-/// Photons stored per second of `mps`'s Metropolis sampling phase (defaults).
-fn measure_mps_photons(scene: &Scene, seed: u64) -> f64 {
+/// Photons stored per second of `mps`'s Metropolis sampling phase (defaults but
+/// `photon_power`).
+fn measure_mps_photons(scene: &Scene, seed: u64, photon_power: &str) -> f64 {
     use crate::strategy::Strategy;
-    let Ok(mut mps) = crate::strategy::mps::Mps::new(Default::default()) else {
+    let mut table = toml::Table::new();
+    table.insert("photon_power".into(), photon_power.into());
+    let Ok(mut mps) = crate::strategy::mps::Mps::from_table(table) else {
         return f64::NAN;
     };
     let Ok(phases) = mps.prepare(scene, seed) else {
