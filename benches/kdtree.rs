@@ -169,10 +169,13 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(QUERIES as u64));
     let every_4th: Vec<Photon> = ours.items().iter().step_by(4).copied().collect();
     let tree = KdTree::build_for_nearest(every_4th.clone());
-    let facing = FacingTree::build(every_4th, Photon::normal);
+    let facing = FacingTree::build(every_4th, Photon::normal, |_| 0);
     let by_predicate = |q: Vec3, n: Vec3| tree.nearest_where(q, f32::INFINITY, |p: &Photon| p.normal().dot(n) > 0.9);
     for (q, n) in queries.iter().zip(&normals) {
-        assert_eq!(by_predicate(*q, *n), facing.nearest_facing(*q, *n, 0.9, f32::INFINITY));
+        assert_eq!(
+            by_predicate(*q, *n),
+            facing.nearest_facing(*q, *n, 0.9, f32::INFINITY).map(|f| f.0)
+        );
     }
     g.bench_function("where", |b| {
         b.iter(|| {
@@ -189,7 +192,7 @@ fn bench(c: &mut Criterion) {
             for (q, n) in queries.iter().zip(&normals) {
                 sum += facing
                     .nearest_facing(*q, *n, 0.9, f32::INFINITY)
-                    .map_or(0.0, |n| n.dist2);
+                    .map_or(0.0, |f| f.0.dist2);
             }
             sum
         })

@@ -23,7 +23,7 @@
 use super::PhotonMap;
 use super::estimate::EstimateParams;
 use super::facing::FacingTree;
-use super::record::{Photon, flags};
+use super::record::{Photon, Rgbe, flags};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
@@ -51,7 +51,7 @@ pub fn precompute_irradiance(map: &PhotonMap, every: usize, params: &EstimatePar
         })
         .collect();
     IrradianceMap {
-        tree: FacingTree::build(selected, Photon::normal),
+        tree: FacingTree::build(selected, Photon::normal, |p| u32::from_le_bytes(p.irradiance_code().0)),
         lookup_radius: params.max_radius,
     }
 }
@@ -85,15 +85,16 @@ impl IrradianceMap {
     pub fn lookup(&self, x: Vec3, n: Vec3, normal_dot: f32, max_radius: f32) -> Option<&Photon> {
         self.tree
             .nearest_facing(x, n, normal_dot, max_radius)
-            .map(|nb| &self.tree.items()[nb.index as usize])
+            .map(|(nb, _)| &self.tree.items()[nb.index as usize])
     }
 
     /// Irradiance at `x` on a surface with unit normal `n`: that of the nearest photon with a
-    /// similar normal within [`IrradianceMap::lookup_radius`]; zero when there is none.
+    /// similar normal within [`IrradianceMap::lookup_radius`]; zero when there is none. Read
+    /// from the tree's payload (the record's irradiance code), not from the record.
     pub fn irradiance_at(&self, x: Vec3, n: Vec3, normal_dot: f32) -> Vec3 {
-        self.lookup(x, n, normal_dot, self.lookup_radius)
-            .and_then(|p| p.irradiance())
-            .unwrap_or(Vec3::ZERO)
+        self.tree
+            .nearest_facing(x, n, normal_dot, self.lookup_radius)
+            .map_or(Vec3::ZERO, |(_, code)| Rgbe(code.to_le_bytes()).decode())
     }
 
     /// Radiance leaving a Lambertian surface of reflectance `rho`: L = ρ/π · E

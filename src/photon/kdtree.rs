@@ -347,17 +347,34 @@ impl<T: KdPoint> KdTree<T> {
     /// leaf `l` are `l·B .. (l + 1)·B`, lanes past the leaf's items set to `pad`. For payloads
     /// a query tests [`LANES`] at a time beside the distances (see [`KdTree::search_blocks`]).
     pub fn lanes_of(&self, value: impl Fn(&T) -> Vec3, pad: f32) -> Vec<Lanes3> {
+        let mut blocks = vec![Lanes3::splat(pad); self.block_count()];
+        self.for_each_slot(|block, lane, item| blocks[block].set(lane, value(item)));
+        blocks
+    }
+
+    /// A value per item in the block layout of [`KdTree::lanes_of`] (lanes past a leaf's items
+    /// set to `pad`): `slots_of(..)[block][lane]` belongs to the item in that slot.
+    pub fn slots_of<V: Copy>(&self, value: impl Fn(&T) -> V, pad: V) -> Vec<[V; LANES]> {
+        let mut blocks = vec![[pad; LANES]; self.block_count()];
+        self.for_each_slot(|block, lane, item| blocks[block][lane] = value(item));
+        blocks
+    }
+
+    fn block_count(&self) -> usize {
+        (self.planes.len() + 1) * self.blocks_per_leaf as usize
+    }
+
+    /// Calls `f(block, lane, item)` for every item's slot in the block layout.
+    fn for_each_slot(&self, mut f: impl FnMut(usize, usize, &T)) {
         let (inner, per_leaf) = (self.planes.len(), self.blocks_per_leaf as usize);
-        let mut blocks = vec![Lanes3::splat(pad); (inner + 1) * per_leaf];
         for_each_node(inner, self.items.len() as u32, |node, lo, hi| {
             if node >= inner {
                 let first = (node - inner) * per_leaf;
                 for (j, item) in self.items[lo as usize..hi as usize].iter().enumerate() {
-                    blocks[first + j / LANES].set(j % LANES, value(item));
+                    f(first + j / LANES, j % LANES, item);
                 }
             }
         });
-        blocks
     }
 
     /// Core of every query: visits, nearest subtrees first, every item whose squared distance

@@ -265,6 +265,16 @@ impl Photon {
         (self.flags() & flags::IRRADIANCE != 0).then(|| self.irradiance.decode())
     }
 
+    /// The precomputed irradiance as stored (its RGBE code), black when there is none:
+    /// `irradiance_code().decode()` is `irradiance().unwrap_or(Vec3::ZERO)` bit for bit.
+    pub fn irradiance_code(&self) -> Rgbe {
+        if self.flags() & flags::IRRADIANCE != 0 {
+            self.irradiance
+        } else {
+            Rgbe::default()
+        }
+    }
+
     /// Stores a precomputed irradiance and sets [`flags::IRRADIANCE`].
     pub fn set_irradiance(&mut self, e: Vec3) {
         self.irradiance = Rgbe::encode(e);

@@ -43,7 +43,7 @@ pub fn precompute_pdfs(map: &GuideMap, params: &PhotonGuidedParams, every: usize
     let mut grids = QuantizedGrids::new(params.grid[0], params.grid[1]);
     built.iter().for_each(|(_, grid)| grids.push(grid));
     PdfRecords {
-        tree: FacingTree::build(keys.collect(), |r: &PdfRecord| r.normal),
+        tree: FacingTree::build(keys.collect(), |r: &PdfRecord| r.normal, |r: &PdfRecord| r.id),
         grids,
     }
 }
@@ -113,13 +113,13 @@ impl GridSampler<'_> {
     pub(super) fn precomputed_at(&self, hit: &SurfaceHit, flip: bool) -> Option<GuidedVertex> {
         let (records, pre) = (self.records?, self.params.precomputed_pdfs.as_ref()?);
         let n = if flip { -hit.frame.n } else { hit.frame.n };
-        let found = records
+        let (found, id) = records
             .tree
             .nearest_facing(hit.p, n, pre.normal_dot, self.params.max_radius)?;
         let record = &records.tree.items()[found.index as usize];
         let n_local = if flip { -Vec3::Z } else { Vec3::Z };
         Some(GuidedVertex::Precomputed {
-            record: record.id,
+            record: id,
             frame: Frame::from_normal_tangent(n_local, hit.frame.to_local(record.tangent)),
         })
     }
