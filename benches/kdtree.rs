@@ -174,7 +174,7 @@ fn bench(c: &mut Criterion) {
     for (q, n) in queries.iter().zip(&normals) {
         assert_eq!(
             by_predicate(*q, *n),
-            facing.nearest_facing(*q, *n, 0.9, f32::INFINITY).map(|f| f.0)
+            facing.nearest_facing(*q, *n, 0.9, f32::INFINITY).map(|f| f.neighbour)
         );
     }
     g.bench_function("where", |b| {
@@ -192,7 +192,7 @@ fn bench(c: &mut Criterion) {
             for (q, n) in queries.iter().zip(&normals) {
                 sum += facing
                     .nearest_facing(*q, *n, 0.9, f32::INFINITY)
-                    .map_or(0.0, |f| f.0.dist2);
+                    .map_or(0.0, |f| f.neighbour.dist2);
             }
             sum
         })

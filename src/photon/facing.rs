@@ -35,6 +35,15 @@ struct FacingBlock {
     payload: [u32; LANES],
 }
 
+/// What [`FacingTree::nearest_facing`] finds: the item (index and squared distance), its
+/// normal and its payload.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Facing {
+    pub neighbour: Neighbour,
+    pub normal: Vec3,
+    pub payload: u32,
+}
+
 impl<T: KdPoint + Send> FacingTree<T> {
     /// Builds the tree (reordering `items`) with `normal` giving each item's unit normal and
     /// `payload` what [`FacingTree::nearest_facing`] returns with it.
@@ -71,16 +80,16 @@ impl<T: KdPoint> FacingTree<T> {
     }
 
     /// The nearest item within `max_radius` of `p` (inclusive) whose normal n_p has
-    /// n_p · `n` > `min_dot`, the dot product computed as `Vec3::dot` computes it, and its
-    /// payload; among items at the same distance, the one [`KdTree::nearest_where`] would
-    /// return.
-    pub fn nearest_facing(&self, p: Vec3, n: Vec3, min_dot: f32, max_radius: f32) -> Option<(Neighbour, u32)> {
+    /// n_p · `n` > `min_dot`, the dot product computed as `Vec3::dot` computes it; among
+    /// items at the same distance, the one [`KdTree::nearest_where`] would return. Its normal
+    /// and payload come from the tree's blocks: reading the item is not needed for them.
+    pub fn nearest_facing(&self, p: Vec3, n: Vec3, min_dot: f32, max_radius: f32) -> Option<Facing> {
         let max_r2 = max_radius * max_radius;
         let (max_r2_lanes, min_dot_lanes) = (f32x8::splat(max_r2), f32x8::splat(min_dot));
-        let mut best: Option<(Neighbour, u32)> = None;
+        let mut best: Option<Facing> = None;
         self.tree.search_blocks(p, max_r2, |block, start, _len, bound2| {
             let d2 = self.tree.block(block).distance2(p);
-            let best2 = f32x8::splat(best.map_or(f32::INFINITY, |b| b.0.dist2));
+            let best2 = f32x8::splat(best.map_or(f32::INFINITY, |b| b.neighbour.dist2));
             let facing = &self.blocks[block];
             let passing = d2.simd_lt(best2) & d2.simd_le(max_r2_lanes) & facing.normals.dot(n).simd_gt(min_dot_lanes);
             if !passing.any() {
@@ -91,13 +100,15 @@ impl<T: KdPoint> FacingTree<T> {
             let d2 = passing.bitselect(d2, f32x8::splat(f32::INFINITY));
             let nearest = d2.to_array().into_iter().fold(f32::INFINITY, f32::min);
             let first = d2.simd_eq(f32x8::splat(nearest)).to_bitmask().trailing_zeros();
-            best = Some((
-                Neighbour {
+            let (lane, normals) = (first as usize, &facing.normals);
+            best = Some(Facing {
+                neighbour: Neighbour {
                     index: start + first,
                     dist2: nearest,
                 },
-                facing.payload[first as usize],
-            ));
+                normal: Vec3::new(normals.x[lane], normals.y[lane], normals.z[lane]),
+                payload: facing.payload[lane],
+            });
             nearest
         });
         best
@@ -166,14 +177,12 @@ mod tests {
                 let min_dot = [0.9f32, 0.0, -1.5, 0.999][q % 4];
                 let r = [0.03f32, 0.2, f32::INFINITY][q % 3];
                 let found = facing.nearest_facing(p, n, min_dot, r);
-                if let Some((nb, bits)) = found {
-                    assert_eq!(
-                        bits,
-                        payload(&facing.items()[nb.index as usize]),
-                        "the found item's payload"
-                    );
+                if let Some(f) = found {
+                    let item = &facing.items()[f.neighbour.index as usize];
+                    assert_eq!(f.payload, payload(item), "the found item's payload");
+                    assert_eq!(f.normal, item.n, "the found item's normal");
                 }
-                let got = found.map(|(nb, _)| nb);
+                let got = found.map(|f| f.neighbour);
                 let want = tree.nearest_where(p, r, |o| o.n.dot(n) > min_dot);
                 assert_eq!(got, want, "query {q} of {count} items: r {r}, cos {min_dot}");
                 // And against brute force: nothing passing is nearer.
@@ -203,7 +212,7 @@ mod tests {
         let at = |r: f32, min_dot: f32| {
             facing
                 .nearest_facing(Vec3::ZERO, Vec3::Z, min_dot, r)
-                .map(|f| f.0.dist2)
+                .map(|f| f.neighbour.dist2)
         };
         assert_eq!(at(3.0, 0.5), Some(9.0), "an item exactly at the radius is found");
         assert_eq!(at(2.999, 0.5), None);

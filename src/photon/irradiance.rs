@@ -85,7 +85,7 @@ impl IrradianceMap {
     pub fn lookup(&self, x: Vec3, n: Vec3, normal_dot: f32, max_radius: f32) -> Option<&Photon> {
         self.tree
             .nearest_facing(x, n, normal_dot, max_radius)
-            .map(|(nb, _)| &self.tree.items()[nb.index as usize])
+            .map(|f| &self.tree.items()[f.neighbour.index as usize])
     }
 
     /// Irradiance at `x` on a surface with unit normal `n`: that of the nearest photon with a
@@ -94,7 +94,7 @@ impl IrradianceMap {
     pub fn irradiance_at(&self, x: Vec3, n: Vec3, normal_dot: f32) -> Vec3 {
         self.tree
             .nearest_facing(x, n, normal_dot, self.lookup_radius)
-            .map_or(Vec3::ZERO, |(_, code)| Rgbe(code.to_le_bytes()).decode())
+            .map_or(Vec3::ZERO, |f| Rgbe(f.payload.to_le_bytes()).decode())
     }
 
     /// Radiance leaving a Lambertian surface of reflectance `rho`: L = ρ/π · E

@@ -40,7 +40,7 @@ pub mod trace;
 pub(crate) mod test_scenes;
 
 pub use estimate::{Estimate, EstimateParams, Filter};
-pub use facing::FacingTree;
+pub use facing::{Facing, FacingTree};
 pub use irradiance::{IrradianceMap, precompute_irradiance};
 pub use kdtree::{KdPoint, KdTree, Neighbour};
 pub use record::{Photon, Rgbe, flags};

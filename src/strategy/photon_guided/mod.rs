@@ -169,7 +169,8 @@ pub struct PdfRecord {
     pub position: Vec3,
     /// Unit normal of the side the photon arrived on.
     pub normal: Vec3,
-    /// First axis of the grid's frame.
+    /// First axis of the grid's frame: `Frame::from_normal(normal).s`, which lookups rebuild
+    /// from the normal the search returns rather than read the record.
     pub tangent: Vec3,
     pub id: u32,
 }

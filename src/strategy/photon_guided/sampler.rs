@@ -113,14 +113,16 @@ impl GridSampler<'_> {
     pub(super) fn precomputed_at(&self, hit: &SurfaceHit, flip: bool) -> Option<GuidedVertex> {
         let (records, pre) = (self.records?, self.params.precomputed_pdfs.as_ref()?);
         let n = if flip { -hit.frame.n } else { hit.frame.n };
-        let (found, id) = records
+        let found = records
             .tree
             .nearest_facing(hit.p, n, pre.normal_dot, self.params.max_radius)?;
-        let record = &records.tree.items()[found.index as usize];
+        // The record's tangent is a function of its normal ([`precompute_pdfs`]), which the
+        // search read from its blocks: the record itself (a cache miss) is not read.
+        let tangent = Frame::from_normal(found.normal).s;
         let n_local = if flip { -Vec3::Z } else { Vec3::Z };
         Some(GuidedVertex::Precomputed {
-            record: id,
-            frame: Frame::from_normal_tangent(n_local, hit.frame.to_local(record.tangent)),
+            record: found.payload,
+            frame: Frame::from_normal_tangent(n_local, hit.frame.to_local(tangent)),
         })
     }
 

@@ -121,6 +121,8 @@ fn precomputed_pdf_at_its_own_photon_is_the_built_pdf() {
     let mut rng = Rng::for_task(13, [0, 0, 0]);
     let mut checked = [0, 0];
     for record in records.tree.items().iter().take(40) {
+        // Lookups rebuild the tangent from the normal the search returns.
+        assert_eq!(record.tangent, Frame::from_normal(record.normal).s);
         let flip = record.normal.dot(n) < 0.0;
         let aligned = Frame::from_normal_tangent(n, record.tangent);
         let built = GuidedVertex::Built {
