@@ -125,19 +125,24 @@ pub fn spawn_ray(p: Vec3, ng: Vec3, d: Vec3) -> Ray {
 pub fn spawn_shadow_ray(p: Vec3, ng: Vec3, q: Vec3, ng_q: Vec3) -> (Ray, f32) {
     let to_q = q - p;
     let dist = to_q.length();
-    let d = to_q / dist;
+    (spawn_shadow_ray_along(p, ng, q, ng_q, to_q / dist), dist)
+}
+
+/// [`spawn_shadow_ray`]'s ray for a caller that has already computed the unit direction
+/// `d = (q − p) / |q − p|` (with `length`): the same ray, bit for bit, without a square root
+/// and three divisions more (next-event estimation has it).
+#[inline]
+pub fn spawn_shadow_ray_along(p: Vec3, ng: Vec3, q: Vec3, ng_q: Vec3, d: Vec3) -> Ray {
+    debug_assert!(d == (q - p) / (q - p).length());
     let o = offset_ray_origin(p, ng, d);
     let q_off = offset_ray_origin(q, ng_q, -d);
     let seg = q_off - o;
     let len = seg.length();
-    (
-        Ray {
-            o,
-            d: seg / len,
-            t_max: len * (1.0 - 1e-5),
-        },
-        dist,
-    )
+    Ray {
+        o,
+        d: seg / len,
+        t_max: len * (1.0 - 1e-5),
+    }
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use super::{Declared, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::error::Result;
 use crate::film::Film;
-use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray};
+use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray_along};
 use crate::light::delta::DeltaIncidence;
 use crate::light::{LightSampling, LightSelection, PointPdf, Receiver, SphereSampling};
 use crate::params::{Params, Range};
@@ -269,7 +269,8 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
     if dist2 == 0.0 {
         return Vec3::ZERO;
     }
-    let wi = to_light / dist2.sqrt();
+    let dist = dist2.sqrt();
+    let wi = to_light / dist;
     let le = light.le(lp.n, -wi);
     let cos_light = lp.n.dot(wi).abs();
     if le == Vec3::ZERO || cos_light == 0.0 {
@@ -280,7 +281,7 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let (shadow, _) = spawn_shadow_ray(hit.p, hit.ng, lp.p, lp.n);
+    let shadow = spawn_shadow_ray_along(hit.p, hit.ng, lp.p, lp.n, wi);
     tally.shadow(&shadow);
     if !scene.unoccluded(&shadow) {
         return Vec3::ZERO;
