@@ -636,17 +636,26 @@ impl<T: KdPoint> KdTree<T> {
         let Some(mut inner2) = out.iter().map(|n| n.dist2).max_by(f32::total_cmp) else {
             return;
         };
-        // Items at the farthest distance that the search held: already tested, though others
-        // at that distance are not.
-        let mut tested_at_inner: Vec<u32> = if held == k {
+        // Those passing to the front, the others kept behind them until it is known whether
+        // a shell follows.
+        let mut passed = 0;
+        for i in 0..held {
+            if costly(&self.items[out[i].index as usize]) {
+                out.swap(passed, i);
+                passed += 1;
+            }
+        }
+        let max_r2 = max_radius * max_radius;
+        // Fewer than k held: every item within the radius that `cheap` passes was tested.
+        let mut more = held == k && passed < k && inner2 < max_r2;
+        // Items at the farthest distance the search held: tested, though others at that
+        // distance may not be.
+        let mut tested_at_inner: Vec<u32> = if more {
             out.iter().filter(|n| n.dist2 == inner2).map(|n| n.index).collect()
         } else {
             Vec::new()
         };
-        out.retain(|n| costly(&self.items[n.index as usize]));
-        let max_r2 = max_radius * max_radius;
-        // Fewer than k held: every item within the radius that `cheap` passes was tested.
-        let mut more = held == k;
+        out.truncate(passed);
         while more && out.len() < k && inner2 < max_r2 {
             let passed = out.len();
             let outer2 = if inner2 > 0.0 {
