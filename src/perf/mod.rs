@@ -177,11 +177,12 @@ pub fn measure_path(scene: &Scene, params: &PathParams, spp: u32) -> PerfReport 
     }
 }
 
-/// Photon tracing (200 000 paths), then k = 50 nearest queries at the first hits of camera
-/// rays and Jensen grids built from their photons: (photons/s, stored, queries/s, grids/s).
 /// Photon paths emitted by `bench perf`'s photon-tracing measurement.
 pub const PERF_PHOTONS: u64 = 200_000;
 
+/// Photon tracing ([`PERF_PHOTONS`] paths), then k = 50 nearest queries at the first hits of
+/// camera rays and Jensen grids built from their photons: (photons/s, stored, queries/s,
+/// grids/s).
 fn measure_photons(scene: &Scene, seed: u64) -> (f64, u64, f64, f64) {
     use crate::photon::{PhotonMap, TraceParams, trace_photons};
     use crate::strategy::photon_guided::{GridSampler, GuideMap, GuidePhoton, PhotonGuidedParams};

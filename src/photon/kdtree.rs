@@ -294,6 +294,13 @@ fn from_order_key(key: u32) -> f32 {
     f32::from_bits(key ^ (!(((key as i32) >> 31) as u32) | 0x8000_0000))
 }
 
+/// Swaps the farthest of `found` to its front (the k-nearest queries' output order).
+fn put_farthest_first(found: &mut [Neighbour]) {
+    if let Some(far) = (0..found.len()).max_by(|&a, &b| found[a].dist2.total_cmp(&found[b].dist2)) {
+        found.swap(0, far);
+    }
+}
+
 /// Moves the `k` smallest of `found` (by `dist2`) to its front, the largest of them at
 /// index k − 1. The k-nearest search collects candidates unsorted and calls this once it holds
 /// k and then whenever it holds 2k: amortised O(1) per candidate without the unpredictable
@@ -552,9 +559,7 @@ impl<T: KdPoint> KdTree<T> {
             count = k;
         }
         out.truncate(count);
-        if let Some(far) = (0..out.len()).max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2)) {
-            out.swap(0, far);
-        }
+        put_farthest_first(out);
     }
 
     /// The candidate collection of [`KdTree::k_nearest_blockwise`] into `out` (sized 2k + a
@@ -646,17 +651,18 @@ impl<T: KdPoint> KdTree<T> {
             }
         }
         let max_r2 = max_radius * max_radius;
-        // Fewer than k held: every item within the radius that `cheap` passes was tested.
-        let mut more = held == k && passed < k && inner2 < max_r2;
+        // Shells only when k were held (fewer: every item within the radius that `cheap`
+        // passes was tested) and fewer than k passed.
+        let shells = held == k && passed < k && inner2 < max_r2;
         // Items at the farthest distance the search held: tested, though others at that
         // distance may not be.
-        let mut tested_at_inner: Vec<u32> = if more {
+        let mut tested_at_inner: Vec<u32> = if shells {
             out.iter().filter(|n| n.dist2 == inner2).map(|n| n.index).collect()
         } else {
             Vec::new()
         };
         out.truncate(passed);
-        while more && out.len() < k && inner2 < max_r2 {
+        while shells && out.len() < k && inner2 < max_r2 {
             let passed = out.len();
             let outer2 = if inner2 > 0.0 {
                 // Items on a surface grow with r²: about 1.5× the candidates still needed at
@@ -688,11 +694,9 @@ impl<T: KdPoint> KdTree<T> {
                 }
             }
             tested_at_inner = shell.iter().filter(|n| n.dist2 == outer2).map(|n| n.index).collect();
-            (inner2, more) = (outer2, outer2 < max_r2);
+            inner2 = outer2;
         }
-        if let Some(far) = (0..out.len()).max_by(|&a, &b| out[a].dist2.total_cmp(&out[b].dist2)) {
-            out.swap(0, far);
-        }
+        put_farthest_first(out);
     }
 
     /// [`KdTree::k_nearest_into`] into a new vector, sorted by increasing distance.

@@ -269,8 +269,7 @@ pub(crate) fn estimate_direct<S: DirectionSampler>(
     if dist2 == 0.0 {
         return Vec3::ZERO;
     }
-    let dist = dist2.sqrt();
-    let wi = to_light / dist;
+    let wi = to_light / dist2.sqrt();
     let le = light.le(lp.n, -wi);
     let cos_light = lp.n.dot(wi).abs();
     if le == Vec3::ZERO || cos_light == 0.0 {

@@ -38,12 +38,9 @@ impl GuideMap {
         let tree = KdTree::build(photons);
         // Padding lanes: zero vectors, which fail the strict side test.
         let normals = tree.lanes_of(|p| p.normal, 0.0);
-        let fluxes = tree.lanes_of(|p| Vec3::new(p.flux, 0.0, 0.0), 0.0);
+        let fluxes = tree.slots_of(|p| p.flux, 0.0);
         let directions = (tree.lanes_of(|p| p.direction, 0.0).into_iter().zip(fluxes))
-            .map(|(direction, flux)| DirectionsAndFluxes {
-                direction,
-                flux: flux.x,
-            })
+            .map(|(direction, flux)| DirectionsAndFluxes { direction, flux })
             .collect();
         Self {
             tree,
