@@ -215,6 +215,10 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    if let Err(e) = check_processor() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     // Usage errors keep the one-line `error: …` / exit 2 promise; help and version print as usual.
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -738,4 +742,28 @@ fn scene_source(file: PathBuf, params: &[String]) -> Result<photon_bench::scene:
         params,
         name: None,
     })
+}
+
+/// The build targets x86-64-v3 on x86-64 (`.cargo/config.toml`); on a processor without its
+/// features a clear line instead of an illegal-instruction crash somewhere in a render.
+fn check_processor() -> std::result::Result<(), String> {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    {
+        let missing: Vec<&str> = [
+            ("avx2", std::arch::is_x86_feature_detected!("avx2")),
+            ("fma", std::arch::is_x86_feature_detected!("fma")),
+            ("bmi2", std::arch::is_x86_feature_detected!("bmi2")),
+        ]
+        .into_iter()
+        .filter_map(|(name, present)| (!present).then_some(name))
+        .collect();
+        if !missing.is_empty() {
+            return Err(format!(
+                "this build needs a processor with {} (x86-64-v3, .cargo/config.toml); \
+                 rebuild with RUSTFLAGS=\"-C target-cpu=x86-64\" cargo build --release",
+                missing.join(", ")
+            ));
+        }
+    }
+    Ok(())
 }
