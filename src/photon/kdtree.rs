@@ -545,7 +545,7 @@ impl<T: KdPoint> KdTree<T> {
         // items within the bound were candidates.
         let guess = GUESS_SCALE * k as f32 / std::f32::consts::PI;
         let mut collect = |guess| self.collect_k_nearest::<SLOTS>(p, k, max_r2, guess, out, &mut mask);
-        let mut count = match collect(guess) {
+        let count = match collect(guess) {
             Ok(count) => count,
             Err(found) => {
                 let grown = guess * if found > 0 { 1.5 * k as f32 / found as f32 } else { 4.0 };
@@ -556,10 +556,14 @@ impl<T: KdPoint> KdTree<T> {
         };
         if count > k {
             keep_k_nearest(&mut out[..count], k);
-            count = k;
+            out.truncate(k);
+            // The selection left the farthest of the k at k − 1, the last of any equal ones:
+            // where `put_farthest_first`'s scan would find it.
+            out.swap(0, k - 1);
+        } else {
+            out.truncate(count);
+            put_farthest_first(out);
         }
-        out.truncate(count);
-        put_farthest_first(out);
     }
 
     /// The candidate collection of [`KdTree::k_nearest_blockwise`] into `out` (sized 2k + a
