@@ -14,10 +14,12 @@ if ! command -v qemu-x86_64 >/dev/null; then
     apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq qemu-user >/dev/null
 fi
 expected='error: this build needs a processor with AVX2, FMA and BMI2'
+err=$(mktemp)
+trap 'rm -f "$err"' EXIT
 for cpu in Nehalem SandyBridge; do
     status=0
-    qemu-x86_64 -cpu "$cpu" "$bench" run experiments/cornell.toml >/tmp/processor-check.out 2>/tmp/processor-check.err || status=$?
-    message=$(grep -v '^qemu-x86_64: warning' /tmp/processor-check.err || true)
+    qemu-x86_64 -cpu "$cpu" "$bench" run experiments/cornell.toml >/dev/null 2>"$err" || status=$?
+    message=$(grep -v '^qemu-x86_64: warning' "$err" || true)
     lines=$(printf '%s\n' "$message" | grep -c . || true)
     if [ "$status" != 2 ] || [ "$lines" != 1 ] || [[ "$message" != "$expected"* ]]; then
         echo "FAIL $cpu: exit $status, stderr: $message"

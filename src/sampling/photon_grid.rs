@@ -85,6 +85,12 @@ fn cell_at(w: Vec3, v: f32, m: usize, n: usize) -> usize {
     i * n + j
 }
 
+/// Minimax polynomial for atan on [0, 1]: atan t ≈ t · Σ ATAN_POLY[i] · t^(2(4 − i)), evaluated by
+/// Horner's rule in t², highest power first (one rule for [`fast_phi`] and [`photon_cells8`], so
+/// their cells agree bit for bit; adding a negative coefficient rounds as subtracting its
+/// magnitude).
+const ATAN_POLY: [f32; 5] = [0.0208351, -0.085133, 0.180141, -0.3302995, 0.999866];
+
 /// Polynomial atan2 in [0, 2π) (max error ≈ 1e-5 rad), for binning photons only. Where a
 /// photon lands decides nothing but the pdf's shape, so an error at a cell border cannot bias
 /// the estimator; `pdf` keeps the exact `cell_of`, which must agree with `sample`. libm's atan2
@@ -98,8 +104,7 @@ fn fast_phi(y: f32, x: f32) -> f32 {
     }
     let t = lo / hi;
     let t2 = t * t;
-    // Minimax polynomial for atan on [0, 1].
-    let mut a = ((((0.0208351 * t2 - 0.085133) * t2 + 0.180141) * t2 - 0.3302995) * t2 + 0.999866) * t;
+    let mut a = ATAN_POLY[1..].iter().fold(ATAN_POLY[0], |acc, &c| acc * t2 + c) * t;
     if ay > ax {
         a = std::f32::consts::FRAC_PI_2 - a;
     }
@@ -119,9 +124,9 @@ fn photon_cell(w: Vec3, m: usize, n: usize) -> usize {
     cell_at(w, fast_phi(w.y, w.x) / TAU, m, n)
 }
 
-/// Adds each photon's flux to the cell [`photon_cell`] bins its direction into, in the
-/// photons' order (so every cell's sum is rounded as a one-at-a-time loop rounds it), skipping
-/// directions below the surface and fluxes that are not positive and finite. The cells are
+/// Adds each photon's flux to the cell its direction falls in ([`cell_at`] with [`fast_phi`]'s
+/// φ), in the photons' order (so every cell's sum is rounded as a one-at-a-time loop rounds
+/// it), skipping directions below the surface and fluxes that are not positive and finite. The cells are
 /// found eight photons at a time ([`photon_cells8`]): one at a time, the arctangent's division
 /// and polynomial were a third of a Jensen grid's build, latency that lanes overlap.
 fn bin_photons(photons: impl IntoIterator<Item = (Vec3, f32)>, m: usize, n: usize, flux: &mut [f32]) {
@@ -156,7 +161,7 @@ fn photon_cells8(x: f32x8, y: f32x8, z: f32x8, m: usize, n: usize) -> ([usize; 8
     let t = lo / hi;
     let t2 = t * t;
     let c = |v: f32| f32x8::splat(v);
-    let mut a = ((((c(0.0208351) * t2 - c(0.085133)) * t2 + c(0.180141)) * t2 - c(0.3302995)) * t2 + c(0.999866)) * t;
+    let mut a = ATAN_POLY[1..].iter().fold(c(ATAN_POLY[0]), |acc, &k| acc * t2 + c(k)) * t;
     a = ay.simd_gt(ax).bitselect(c(std::f32::consts::FRAC_PI_2) - a, a);
     a = x.simd_lt(c(0.0)).bitselect(c(std::f32::consts::PI) - a, a);
     a = y.simd_lt(c(0.0)).bitselect(c(TAU) - a, a);
