@@ -116,6 +116,7 @@ impl GridSampler<'_> {
         let found = records
             .tree
             .nearest_facing(hit.p, n, pre.normal_dot, self.params.max_radius)?;
+        records.grids.prefetch(found.payload as usize);
         // The record's tangent is a function of its normal ([`precompute_pdfs`]), which the
         // search read from its blocks: the record itself (a cache miss) is not read.
         let tangent = Frame::from_normal(found.normal).s;
