@@ -48,6 +48,9 @@ pub struct Material {
     /// Mitsuba's `mask`: the probability α in (0, 1] that light meeting the surface scatters by
     /// `bsdf` rather than passing straight through ([`Scene::intersect`]); `None` is opaque.
     pub opacity: Option<Scalar>,
+    /// Mitsuba's `normalmap`: colours c whose 2c − 1 is the shading normal in the hit's own
+    /// shading frame ([`Scene::surface_hit`]); `None` keeps the frame.
+    pub normal_map: Option<Texture>,
 }
 
 impl Material {
@@ -58,6 +61,7 @@ impl Material {
             bsdf,
             textures: Vec::new(),
             opacity: None,
+            normal_map: None,
         }
     }
 
@@ -104,8 +108,20 @@ impl Material {
 
     /// Whether anything about the material varies with (u, v).
     fn is_textured(&self) -> bool {
-        !self.textures.is_empty() || matches!(self.opacity, Some(Scalar::Texture(_)))
+        !self.textures.is_empty() || matches!(self.opacity, Some(Scalar::Texture(_))) || self.normal_map.is_some()
     }
+}
+
+/// The shading frame a normal map gives (Mitsuba 3's `normalmap`): the colour `c` read at the
+/// hit is the normal 2c − 1 in the hit's own shading frame `frame` (whose tangent is ∂p/∂u); the
+/// new frame has that normal, normalised, and ∂p/∂u (`dp_du`) made orthogonal to it as its
+/// tangent. A colour that gives no direction (2c − 1 = 0) keeps the frame.
+fn normal_mapped(frame: &Frame, c: Vec3, dp_du: Vec3) -> Frame {
+    let n = frame.to_world(2.0 * c - Vec3::ONE).normalize_or_zero();
+    if n == Vec3::ZERO {
+        return *frame;
+    }
+    Frame::from_normal_tangent(n, dp_du)
 }
 
 /// Where a primitive's texture coordinates (u, v) come from, as Mitsuba 3 defines them.
@@ -422,7 +438,9 @@ impl Scene {
         let mut bary = Vec2::ZERO;
         // The tangent orients anisotropic models only; isotropic ones keep the frame they always
         // had (so that their images stay bit-identical to earlier versions).
-        let anisotropic = self.materials[attrs.material as usize].is_anisotropic();
+        let material = &self.materials[attrs.material as usize];
+        // A normal map's tangent space is the texture's: its frame needs ∂p/∂u too.
+        let anisotropic = material.is_anisotropic() || material.normal_map.is_some();
         let (p, ng, ns, tangent) = match self.primitives[i] {
             Primitive::Triangle([a, b, c]) => {
                 bary = pull_off_edges(hit.b);
@@ -464,7 +482,7 @@ impl Scene {
                 (center + radius * dir, n, n, tangent)
             }
         };
-        SurfaceHit {
+        let mut surface = SurfaceHit {
             t: hit.t,
             p,
             ng,
@@ -472,7 +490,11 @@ impl Scene {
             prim: hit.prim,
             material: attrs.material,
             bary,
+        };
+        if let Some(normals) = &material.normal_map {
+            surface.frame = normal_mapped(&surface.frame, normals.eval(self.uv(&surface)), tangent);
         }
+        surface
     }
 
     /// The reflectance model at a hit, its textures evaluated there.

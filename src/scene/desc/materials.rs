@@ -26,6 +26,7 @@ pub enum MaterialDesc {
     Plastic(Plastic),
     OneSided(OneSided),
     Mask(Mask),
+    NormalMap(NormalMap),
     Blend(Blend),
     Coated(Coated),
 }
@@ -60,6 +61,20 @@ pub struct Mask {
     /// Mitsuba).
     pub opacity: Option<ScalarDesc>,
     /// Any material but another mask.
+    pub bsdf: Box<MaterialDesc>,
+}
+
+/// Mitsuba's `normalmap`: the nested material seen through a shading frame tilted per point.
+/// The colour c at a hit (a texture read `raw`, as normal maps are stored) is the tangent-space
+/// normal 2c − 1 in the hit's own shading frame (tangent along ∂p/∂u); the new frame's normal is
+/// that vector normalised and its tangent ∂p/∂u made orthogonal to it
+/// ([`crate::scene::Scene::surface_hit`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NormalMap {
+    /// A texture, or one RGB triple for the whole surface; components in [0, 1].
+    pub normals: Color,
+    /// Any material but a mask or another normal map (a mask goes around the normal map).
     pub bsdf: Box<MaterialDesc>,
 }
 

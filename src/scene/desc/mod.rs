@@ -103,6 +103,12 @@
 //! bsdf = { type = "diffuse", reflectance = [0.2, 0.5, 0.1] }  # number in [0, 1] (default
 //!                                   # 0.5) or a texture's luminance; passes light straight
 //!                                   # through otherwise; not on an emitter
+//! [materials.tiles]
+//! type = "normal_map"               # Mitsuba's normalmap: colour c is the normal 2c − 1 in
+//! normals = { type = "bitmap", file = "textures/tiles_normals.png", raw = true }  # the hit's frame
+//! bsdf = { type = "diffuse", reflectance = [0.6, 0.5, 0.4] }  # (tangent ∂p/∂u); a texture or
+//!                                   # one RGB triple; any material but a mask (which goes
+//!                                   # around the normal map) or another normal map
 //! [materials.worn_gold]
 //! type = "blend"                    # Mitsuba's blendbsdf: (1 − w) × bsdfs[0] + w × bsdfs[1]
 //! weight = 0.3                      # w in [0, 1] (default 0.5) or a texture's luminance

@@ -113,6 +113,13 @@ pub(super) fn material_xml(
             let opacity = scalar_xml("opacity", m.opacity.as_ref(), files)?;
             format!("    <bsdf type=\"mask\" id=\"{id}\">\n{opacity}{inner}    </bsdf>\n")
         }
+        MaterialDesc::NormalMap(m) => {
+            // The nested material as it would stand alone, its id moved to the normal map.
+            let inner = material_xml(&m.bsdf, one_sided, id, field, file, files, warnings)?;
+            let inner = indented(&inner.replacen(&format!(" id=\"{id}\""), "", 1));
+            let normals = files.color("normalmap", &m.normals, OUTER)?;
+            format!("    <bsdf type=\"normalmap\" id=\"{id}\">\n{normals}{inner}    </bsdf>\n")
+        }
         MaterialDesc::Blend(b) => {
             // Each model as it would stand alone (its own sidedness), without an id.
             let mut parts = String::new();

@@ -244,11 +244,16 @@ fn the_documented_example_loads() {
         pixels: vec![glam::Vec3::ONE; 8],
     };
     crate::film::write_exr(&sky, &dir.path().join("textures/sky.exr")).unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([128, 128, 255]))
+        .save(dir.path().join("textures/tiles_normals.png"))
+        .unwrap();
     let path = dir.path().join("example.toml");
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 17);
+    assert_eq!(scene.materials.len(), 18);
+    let tiles = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
+    assert!(tiles.normal_map.is_some(), "the tiles are normal-mapped");
     let blend = scene.materials.iter().find(|m| m.name == "worn_gold").unwrap();
     assert!(
         blend.bsdf.mixes_delta(),

@@ -117,6 +117,27 @@ impl<'a> Textures<'a> {
         Ok(hi)
     }
 
+    /// A normal map's colours (`normalmap`'s `normals`): a texture, or one RGB triple as a
+    /// uniform texture; every value finite (a colour c is the tangent-space normal 2c − 1).
+    pub(super) fn normals(&mut self, ctx: &Ctx, field: &str, c: &Color) -> Result<Texture> {
+        let texture = match c {
+            Color::Rgb(v) => {
+                let v = rgb(ctx.unit_rgb(field, *v)?);
+                Texture::Checkerboard(Checkerboard {
+                    color0: v,
+                    color1: v,
+                    to_uv: UvTransform::scale_offset(Vec2::ONE, Vec2::ZERO),
+                })
+            }
+            Color::Texture(t) => self.texture(ctx, field, t)?,
+        };
+        let (lo, hi) = (texture.min(), texture.max());
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err(ctx.err(field, "expected finite texture values (a normal map's colours)"));
+        }
+        Ok(texture)
+    }
+
     fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {
         match t {
             TextureDesc::Checkerboard(c) => checkerboard(ctx, field, c),

@@ -266,15 +266,26 @@ pub(super) fn materials(
         let field = format!("materials.{}", key_string(name));
         validate_material(ctx, &field, d)?;
         index.insert(name.clone(), out.len() as u32);
-        let (d, opacity) = match d {
+        // Wrappers that are properties of the surface, not of the model: a mask outermost, then
+        // a normal map (validation refuses them anywhere else).
+        let (d, field, opacity) = match d {
             MaterialDesc::Mask(m) => {
                 let opacity = m.opacity.clone().unwrap_or(desc::ScalarDesc::Value(0.5));
                 (
                     &*m.bsdf,
+                    format!("{field}.bsdf"),
                     Some(textures.scalar(ctx, &format!("{field}.opacity"), &opacity, (1.0, "an opacity"))?),
                 )
             }
-            d => (d, None),
+            d => (d, field, None),
+        };
+        let (d, field, normal_map) = match d {
+            MaterialDesc::NormalMap(m) => (
+                &*m.bsdf,
+                format!("{field}.bsdf"),
+                Some(textures.normals(ctx, &format!("{field}.normals"), &m.normals)?),
+            ),
+            d => (d, field, None),
         };
         let bsdf = make_bsdf(ctx, &field, d, textures)?;
         out.push(Material {
@@ -282,6 +293,7 @@ pub(super) fn materials(
             bsdf,
             textures: std::mem::take(&mut textures.params),
             opacity,
+            normal_map,
         });
     }
     Ok((out, index))
@@ -356,6 +368,7 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                     | MaterialDesc::DiffuseTransmission(_)
                     | MaterialDesc::OneSided(_)
                     | MaterialDesc::Mask(_)
+                    | MaterialDesc::NormalMap(_)
             ) {
                 return Err(ctx.err(
                     &f("bsdf"),
@@ -373,10 +386,10 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
             }
             for (i, b) in m.bsdfs.iter().enumerate() {
                 let field = format!("{field}.bsdfs[{i}]");
-                if matches!(b, MaterialDesc::Mask(_)) {
+                if matches!(b, MaterialDesc::Mask(_) | MaterialDesc::NormalMap(_)) {
                     return Err(ctx.err(
                         &field,
-                        "expected a material that is not a mask (a mask goes around the blend)",
+                        "expected a material that is not a mask or a normal map (they go around the blend)",
                     ));
                 }
                 validate_material(ctx, &field, b)?;
@@ -394,6 +407,15 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
         MaterialDesc::Mask(m) => {
             if matches!(*m.bsdf, MaterialDesc::Mask(_)) {
                 return Err(ctx.err(&f("bsdf"), "expected a material that is not itself a mask"));
+            }
+            validate_material(ctx, &f("bsdf"), &m.bsdf)?;
+        }
+        MaterialDesc::NormalMap(m) => {
+            if matches!(*m.bsdf, MaterialDesc::Mask(_) | MaterialDesc::NormalMap(_)) {
+                return Err(ctx.err(
+                    &f("bsdf"),
+                    "expected a material that is not a mask or a normal map (a mask goes around the normal map)",
+                ));
             }
             validate_material(ctx, &f("bsdf"), &m.bsdf)?;
         }
@@ -475,9 +497,10 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         MaterialDesc::OneSided(m) => {
             Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?))
         }
-        // `materials` takes the opacity off the outermost material; validation refuses masks
-        // anywhere else.
+        // `materials` takes the opacity and the normal map off the outermost materials;
+        // validation refuses them anywhere else.
         MaterialDesc::Mask(m) => make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?,
+        MaterialDesc::NormalMap(m) => make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?,
         MaterialDesc::Blend(m) => blend(ctx, field, m, textures)?,
         MaterialDesc::Coated(m) => rough::coated(ctx, field, m, textures, |textures| {
             make_bsdf(ctx, &format!("{field}.base"), &m.base, textures)

@@ -12,6 +12,9 @@ impl<'a, 'i> Reader<'a, 'i> {
         if kind == "mask" {
             return self.mask(n, Self::bsdf);
         }
+        if kind == "normalmap" {
+            return self.normal_map(n, Self::bsdf);
+        }
         if kind == "blendbsdf" {
             // Each model keeps its own sidedness (a blended dielectric stays two-sided).
             return self.blend(n, Self::bsdf);
@@ -32,6 +35,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             // Opacity is the same from both sides: twosided(mask(b)) is mask(twosided(b)).
             match self.required(inner, "type")?.as_str() {
                 "mask" => return self.mask(inner, Self::one_bsdf),
+                "normalmap" => return self.normal_map(inner, Self::one_bsdf),
                 "blendbsdf" => return self.blend(inner, Self::one_bsdf),
                 _ => {}
             }
@@ -62,6 +66,9 @@ impl<'a, 'i> Reader<'a, 'i> {
         let kind = self.required(n, "type")?;
         if kind == "blendbsdf" {
             return self.blend(n, Self::one_bsdf);
+        }
+        if kind == "normalmap" {
+            return self.normal_map(n, Self::one_bsdf);
         }
         let mut o = self.obj(n)?;
         let m = match kind.as_str() {
@@ -238,6 +245,37 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         Ok(MaterialDesc::Mask(desc::Mask {
             opacity,
+            bsdf: Box::new(nested(self, inner)?),
+        }))
+    }
+
+    /// A `normalmap`: its `normalmap` texture and its one nested BSDF, read by `nested`
+    /// (sidedness as Mitsuba's, or two-sided).
+    fn normal_map(
+        &mut self,
+        n: Node<'a, 'i>,
+        nested: fn(&mut Self, Node<'a, 'i>) -> Result<MaterialDesc>,
+    ) -> Result<MaterialDesc> {
+        let mut o = self.obj(n)?;
+        let Some(normals) = self.texture_colour(&mut o, "normalmap")? else {
+            return Err(self.err(n, "expected a <texture name=\"normalmap\">"));
+        };
+        let inner = self.nested_bsdfs(&o, "normalmap")?;
+        let [inner] = inner[..] else {
+            return Err(self.err(n, "expected exactly one nested <bsdf> in a normalmap"));
+        };
+        match self.required(inner, "type")?.as_str() {
+            "mask" => {
+                return Err(self.err(
+                    inner,
+                    "a mask inside a normalmap is not supported (put the mask outside)",
+                ));
+            }
+            "normalmap" => return Err(self.err(inner, "a normalmap inside a normalmap is not supported")),
+            _ => {}
+        }
+        Ok(MaterialDesc::NormalMap(desc::NormalMap {
+            normals,
             bsdf: Box::new(nested(self, inner)?),
         }))
     }
