@@ -6,39 +6,12 @@
 
 mod agreement;
 
-use agreement::{assert_agrees, assert_refused, image_mean, load_text as load, render_image as render};
+use agreement::{assert_agrees, assert_refused, floor_under, image_mean, load_text as load, render_image as render};
 use glam::{Vec2, Vec3};
 use photon_bench::light::delta::DeltaLight;
 use photon_bench::scene::Scene;
 use photon_bench::strategy::{self, Strategy};
 use std::f32::consts::FRAC_1_PI;
-
-/// A grey floor (ρ = 0.5) seen from straight above, lit by `light` alone.
-fn floor_under(light: &str) -> String {
-    format!(
-        r#"[camera]
-eye = [0, 3, 0]
-look_at = [0, 0, 0]
-up = [0, 0, -1]
-fov_y = 40
-resolution = [24, 24]
-
-[materials.grey]
-type = "diffuse"
-reflectance = [0.5, 0.5, 0.5]
-
-[[shapes]]
-type = "quad"
-material = "grey"
-center = [0, 0, 0]
-size = [6, 6]
-facing = "+y"
-
-[[lights]]
-{light}
-"#
-    )
-}
 
 /// The floor point each pixel centre sees.
 fn floor_point(scene: &Scene, x: u32, y: u32) -> Vec3 {

@@ -4,7 +4,9 @@
 
 mod agreement;
 
-use agreement::{assert_agrees, assert_refused, image_mean, load_text as load, mitsuba_scene, render_image as render};
+use agreement::{
+    assert_agrees, assert_refused, floor_under, image_mean, load_text as load, mitsuba_scene, render_image as render,
+};
 use glam::{Vec2, Vec3};
 use photon_bench::scene::Scene;
 use std::f32::consts::FRAC_1_PI;
@@ -12,36 +14,16 @@ use std::f32::consts::FRAC_1_PI;
 /// A grey floor (ρ = 0.5) seen from above under a sun shining straight down (E = 2), its
 /// material `grey` wrapped in a normal map of colours `normals` (a TOML value).
 fn floor_in_sun(normals: Option<&str>) -> String {
-    let material = match normals {
-        None => "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]".to_string(),
-        Some(c) => format!(
-            "type = \"normal_map\"\nnormals = {c}\nbsdf = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}"
+    let floor = floor_under("type = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [2, 2, 2]");
+    match normals {
+        None => floor,
+        Some(c) => floor.replace(
+            "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]",
+            &format!(
+                "type = \"normal_map\"\nnormals = {c}\nbsdf = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}"
+            ),
         ),
-    };
-    format!(
-        r#"[camera]
-eye = [0, 3, 0]
-look_at = [0, 0, 0]
-up = [0, 0, -1]
-fov_y = 40
-resolution = [16, 16]
-
-[materials.grey]
-{material}
-
-[[shapes]]
-type = "quad"
-material = "grey"
-center = [0, 0, 0]
-size = [6, 6]
-facing = "+y"
-
-[[lights]]
-type = "directional"
-direction = [0, -1, 0]
-irradiance = [2, 2, 2]
-"#
-    )
+    }
 }
 
 /// Under light falling along the surface normal n, a diffuse floor reflects ρ/π · E (n′ · n)

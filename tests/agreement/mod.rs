@@ -179,3 +179,32 @@ pub fn mitsuba_scene(body: &str) -> String {
 </scene>"#
     )
 }
+
+/// A grey floor (ρ = 0.5, material `grey`) seen from straight above, 24 × 24 pixels, lit by
+/// `light` alone (a `[[lights]]` table's body).
+#[allow(dead_code)]
+pub fn floor_under(light: &str) -> String {
+    format!(
+        r#"[camera]
+eye = [0, 3, 0]
+look_at = [0, 0, 0]
+up = [0, 0, -1]
+fov_y = 40
+resolution = [24, 24]
+
+[materials.grey]
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+
+[[shapes]]
+type = "quad"
+material = "grey"
+center = [0, 0, 0]
+size = [6, 6]
+facing = "+y"
+
+[[lights]]
+{light}
+"#
+    )
+}
