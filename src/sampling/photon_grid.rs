@@ -126,9 +126,10 @@ fn photon_cell(w: Vec3, m: usize, n: usize) -> usize {
 
 /// Adds each photon's flux to the cell its direction falls in ([`cell_at`] with [`fast_phi`]'s
 /// φ), in the photons' order (so every cell's sum is rounded as a one-at-a-time loop rounds
-/// it), skipping directions below the surface and fluxes that are not positive and finite. The cells are
-/// found eight photons at a time ([`photon_cells8`]): one at a time, the arctangent's division
-/// and polynomial were a third of a Jensen grid's build, latency that lanes overlap.
+/// it), skipping directions below the surface and fluxes that are not positive and finite.
+/// The cells are found eight photons at a time ([`photon_cells8`]): one at a time, the
+/// arctangent's division and polynomial were a third of a Jensen grid's build, latency that
+/// lanes overlap.
 fn bin_photons(photons: impl IntoIterator<Item = (Vec3, f32)>, m: usize, n: usize, flux: &mut [f32]) {
     let mut photons = photons.into_iter();
     loop {
@@ -572,9 +573,10 @@ mod tests {
         }
     }
 
-    /// The counted cell is the scan's: the first cell whose prefix sum of weights exceeds u·W,
-    /// never an empty one, and the sample the same bits, at u on and a few ULPs around every cell's border (where the count
-    /// and the scan could part), for grids with empty cells inside and at both ends.
+    /// The counted cell is the scan's — the first cell whose prefix sum of weights exceeds u·W,
+    /// never an empty one — and the sample the same bits, at u on and a few ULPs around every
+    /// cell's border (where the count and the scan could part), for grids with empty cells
+    /// inside and at both ends.
     #[test]
     fn quantized_sampling_picks_the_cell_a_scan_picks() {
         for (m, n, eps, seed) in [(4, 16, 0.0, 2), (4, 16, 0.01, 3), (8, 32, 0.0, 5), (3, 7, 0.0, 1)] {

@@ -108,7 +108,7 @@ impl Material {
 
     /// Whether anything about the material varies with (u, v).
     fn is_textured(&self) -> bool {
-        !self.textures.is_empty() || matches!(self.opacity, Some(Scalar::Texture(_))) || self.normal_map.is_some()
+        !self.textures.is_empty() || matches!(self.opacity, Some(Scalar::Texture(_)))
     }
 }
 
@@ -436,11 +436,11 @@ impl Scene {
         let i = hit.prim as usize;
         let attrs = &self.attrs[i];
         let mut bary = Vec2::ZERO;
-        // The tangent orients anisotropic models only; isotropic ones keep the frame they always
-        // had (so that their images stay bit-identical to earlier versions).
+        // The tangent ∂p/∂u orients anisotropic models and a normal map's tangent space (the
+        // texture's); other materials keep the frame they always had (so that their images stay
+        // bit-identical to earlier versions).
         let material = &self.materials[attrs.material as usize];
-        // A normal map's tangent space is the texture's: its frame needs ∂p/∂u too.
-        let anisotropic = material.is_anisotropic() || material.normal_map.is_some();
+        let needs_dp_du = material.is_anisotropic() || material.normal_map.is_some();
         let (p, ng, ns, tangent) = match self.primitives[i] {
             Primitive::Triangle([a, b, c]) => {
                 bary = pull_off_edges(hit.b);
@@ -460,7 +460,7 @@ impl Scene {
                     }
                     None => ng,
                 };
-                let tangent = if anisotropic {
+                let tangent = if needs_dp_du {
                     triangle_dp_du([a, b, c], attrs.uv)
                 } else {
                     b - a
@@ -473,7 +473,7 @@ impl Scene {
                 // Anisotropic models: the tangent along increasing u (longitude about the
                 // sphere's own z axis), Mitsuba's dp/du; otherwise longitude about world y.
                 let tangent = match attrs.uv {
-                    UvMap::Sphere { world_to_local } if anisotropic => {
+                    UvMap::Sphere { world_to_local } if needs_dp_du => {
                         let l = world_to_local * dir;
                         world_to_local.transpose() * Vec3::new(-l.y, l.x, 0.0)
                     }

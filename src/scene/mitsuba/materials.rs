@@ -35,7 +35,6 @@ impl<'a, 'i> Reader<'a, 'i> {
             // Opacity is the same from both sides: twosided(mask(b)) is mask(twosided(b)).
             match self.required(inner, "type")?.as_str() {
                 "mask" => return self.mask(inner, Self::one_bsdf),
-                "normalmap" => return self.normal_map(inner, Self::one_bsdf),
                 "blendbsdf" => return self.blend(inner, Self::one_bsdf),
                 _ => {}
             }
