@@ -119,6 +119,16 @@ impl Texture {
         })
     }
 
+    /// The gradient (∂/∂u, ∂/∂v) of [`Texture::eval_number`] at `uv` (Mitsuba's `eval_1_grad`,
+    /// what a bump map reads): a bilinear bitmap's exact derivative within its cell; zero for a
+    /// nearest-texel bitmap and a checkerboard, which are flat between their steps.
+    pub fn gradient_number(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Checkerboard(_) => Vec2::ZERO,
+            Texture::Bitmap(b) => b.gradient_number(uv),
+        }
+    }
+
     /// The largest value of each channel anywhere on the texture.
     pub fn max(&self) -> Vec3 {
         match self {
@@ -223,6 +233,27 @@ impl Bitmap {
                 row(y0).lerp(row(y0 + 1.0), fy)
             }
         }
+    }
+
+    /// [`Texture::gradient_number`]: the bilinear interpolation's derivative in texel units,
+    /// scaled by the resolution and taken back through the affine `to_uv` (its transpose).
+    fn gradient_number(&self, uv: Vec2) -> Vec2 {
+        if self.filter == Filter::Nearest {
+            return Vec2::ZERO;
+        }
+        let st = self.to_uv.apply(uv);
+        let (w, h) = (self.width as f32, self.height as f32);
+        let (x, y) = (st.x * w - 0.5, st.y * h - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let l = |dx: f32, dy: f32| crate::color::luminance(self.texel(x0 + dx, y0 + dy));
+        let (l00, l10, l01, l11) = (l(0.0, 0.0), l(1.0, 0.0), l(0.0, 1.0), l(1.0, 1.0));
+        let d_st = Vec2::new(
+            w * ((1.0 - fy) * (l10 - l00) + fy * (l11 - l01)),
+            h * ((1.0 - fx) * (l01 - l00) + fx * (l11 - l10)),
+        );
+        let [a, b] = self.to_uv.rows;
+        Vec2::new(a[0] * d_st.x + b[0] * d_st.y, a[1] * d_st.x + b[1] * d_st.y)
     }
 
     /// The texel at integer coordinates (given as floats, possibly outside the image or not
@@ -358,6 +389,52 @@ mod tests {
 
     /// At texel centres bilinear filtering returns the texel; halfway between two it returns
     /// their mean; and it is linear in between.
+    #[test]
+    fn the_bilinear_gradient_is_the_derivative_of_the_number_read() {
+        let texels: Vec<Vec3> = [0.1f32, 0.7, 0.3, 0.2, 0.9, 0.5, 0.4, 0.8, 0.0]
+            .iter()
+            .map(|&g| Vec3::splat(g))
+            .collect();
+        let mut bitmap = Bitmap {
+            width: 3,
+            height: 3,
+            texels: texels.into(),
+            filter: Filter::Bilinear,
+            wrap: Wrap::Repeat,
+            to_uv: UvTransform {
+                rows: [[2.0, 0.5, 0.1], [-0.3, 1.5, 0.2]],
+            },
+        };
+        let t = Texture::Bitmap(bitmap.clone());
+        // Along any line a bilinear function is quadratic within a cell, where central
+        // differences are exact: compare at points whose differences stay in one cell.
+        let h = 1e-3f32;
+        let mut compared = 0;
+        for k in 0..200 {
+            let uv = Vec2::new((k as f32 * 0.137).fract(), (k as f32 * 0.291 + 0.05).fract());
+            let in_cell = [Vec2::new(h, 0.0), Vec2::new(0.0, h)].iter().all(|d| {
+                let cell = |uv: Vec2| {
+                    let st = bitmap.to_uv.apply(uv) * 3.0 - Vec2::splat(0.5);
+                    st.floor()
+                };
+                cell(uv + *d) == cell(uv - *d)
+            });
+            if !in_cell {
+                continue;
+            }
+            compared += 1;
+            let g = t.gradient_number(uv);
+            let num = Vec2::new(
+                t.eval_number(uv + Vec2::new(h, 0.0)) - t.eval_number(uv - Vec2::new(h, 0.0)),
+                t.eval_number(uv + Vec2::new(0.0, h)) - t.eval_number(uv - Vec2::new(0.0, h)),
+            ) / (2.0 * h);
+            assert!((g - num).length() < 2e-3 * g.length().max(1.0), "{uv}: {g} vs {num}");
+        }
+        assert!(compared > 150, "{compared}");
+        bitmap.filter = Filter::Nearest;
+        assert_eq!(Texture::Bitmap(bitmap).gradient_number(Vec2::new(0.3, 0.4)), Vec2::ZERO);
+    }
+
     #[test]
     fn bilinear_filter_interpolates_between_texel_centres() {
         let t = [Vec3::ZERO, Vec3::ONE, Vec3::splat(2.0), Vec3::splat(3.0)];

@@ -1,6 +1,7 @@
-//! Normal maps (TOML `type = "normal_map"`, Mitsuba's `normalmap`): the shading frame a map gives
-//! against its closed form, every strategy rendering a normal-mapped room as `path` does,
-//! Mitsuba's element read (textures raw, wrapped or wrapping), bad input refused in one line.
+//! Normal and bump maps (TOML `type = "normal_map"` / `"bump_map"`, Mitsuba's `normalmap` /
+//! `bumpmap`): the model a map gives against its closed forms, every strategy rendering a
+//! mapped room as `path` does, Mitsuba's elements read (textures raw, wrapped or wrapping), bad
+//! input refused in one line.
 
 mod agreement;
 
@@ -8,6 +9,7 @@ use agreement::{
     assert_agrees, assert_refused, floor_under, image_mean, load_text as load, mitsuba_scene, render_image as render,
 };
 use glam::{Vec2, Vec3};
+use photon_bench::bsdf::{Bsdf, TransportMode};
 use photon_bench::scene::Scene;
 use std::f32::consts::FRAC_1_PI;
 
@@ -27,12 +29,13 @@ fn floor_in_sun(normals: Option<&str>) -> String {
 }
 
 /// Under light falling along the surface normal n, a diffuse floor reflects ρ/π · E (n′ · n)
-/// with n′ its shading normal, and a map colour c tilts n′ away from n by the angle whose cosine
-/// is (2c − 1)_z / |2c − 1| whatever the tangent's direction: c = (0.8, 0.5, 0.9) gives
-/// 2c − 1 = (0.6, 0, 0.8), so 0.8 ρ/π E everywhere; c = (0.5, 0.5, 1), the flat normal, gives
-/// the unmapped floor's ρ/π E; a map tilting the normal below the horizon (c_z < ½, here
-/// (0.5, 0.5, 0.2), n′ = −n) sees the sun from behind: black, as Mitsuba's one-sided models.
-/// Next-event estimation toward a directional light has no variance at a point.
+/// with n′ its mapped normal (the shadowing G₁ of a light along n is 1), and a map colour c
+/// tilts n′ away from n by the angle whose cosine is (2c − 1)_z / |2c − 1| whatever the
+/// tangent's direction: c = (0.8, 0.5, 0.9) gives 2c − 1 = (0.6, 0, 0.8), so 0.8 ρ/π E
+/// everywhere; c = (0.5, 0.5, 1), the flat normal, gives the unmapped floor's ρ/π E; a map
+/// tilting the normal below the horizon (c_z < ½, here (0.5, 0.5, 0.2), n′ = −n) sees the sun
+/// from behind: black, as Mitsuba's one-sided models. Next-event estimation toward a
+/// directional light has no variance at a point.
 #[test]
 fn a_normal_map_shades_a_floor_as_its_tilted_normal() {
     let dir = tempfile::tempdir().unwrap();
@@ -66,28 +69,66 @@ fn a_normal_map_shades_a_floor_as_its_tilted_normal() {
     );
 }
 
-/// The frame a map gives, read at a hit: its normal is the map's vector in the unmapped
-/// shading frame (normal n, tangent ∂p/∂u), normalised, and its tangent ∂p/∂u made orthogonal.
+/// A sun 45° off the normal: the light direction l is shadowed by Smith's GGX G₁ with
+/// α² = tan²θ′ / 8 (θ′ the map's tilt, 37° here: α² = 0.0703, G₁(45°) = 0.98302) [Chiang et al.
+/// 2019], as Mitsuba 3.9's `normalmap`. Two maps tilting the normal by ±0.6 along the tangent
+/// give ρ/π E (l · n′) G₁ each, whatever direction the tangent has, and together
+/// ρ/π E · 2 · 0.8 (l · n) G₁.
 #[test]
-fn the_mapped_frame_is_the_maps_vector_in_the_surface_frame() {
+fn an_oblique_sun_is_shadowed_by_the_maps_tilt() {
+    let dir = tempfile::tempdir().unwrap();
+    let sun = |normals: &str| {
+        floor_in_sun(Some(normals)).replace("direction = [0, -1, 0]", "direction = [0.7071068, -0.7071068, 0]")
+    };
+    let mean = |normals: &str| {
+        let scene = load(dir.path(), "floor.toml", &sun(normals)).unwrap();
+        let img = render(&scene, "path", "max_depth = 1", 4, 1);
+        let (first, rest) = img.pixels.split_first().unwrap();
+        assert!(
+            rest.iter().all(|p| (*p - *first).abs().max_element() < 1e-5),
+            "{normals}: uniform floor"
+        );
+        first.x
+    };
+    let g1 = 2.0 / (1.0 + (1.0 + 0.36 / (8.0 * 0.64) * 1.0f32).sqrt());
+    let want = FRAC_1_PI * 0.5 * 2.0 * 0.8 * std::f32::consts::FRAC_1_SQRT_2 * g1;
+    let got = 0.5 * (mean("[0.8, 0.5, 0.9]") + mean("[0.2, 0.5, 0.9]"));
+    assert!((got / want - 1.0).abs() < 1e-5, "{got} vs {want} (G₁ = {g1})");
+}
+
+/// The model a map gives, read at a hit: the hit keeps its shading frame, whose tangent is ∂p/∂u,
+/// and a diffuse model's f |cos θ| toward l is ρ/π (l · n′) G₁(l) with n′ the map's vector in
+/// that frame, normalised.
+#[test]
+fn the_mapped_model_reflects_about_the_maps_vector_in_the_surface_frame() {
     let dir = tempfile::tempdir().unwrap();
     let scene = load(dir.path(), "floor.toml", &floor_in_sun(Some("[0.9, 0.3, 0.8]"))).unwrap();
     let ray = scene.camera.generate_ray(Vec2::new(5.5, 9.5));
     let hit = scene.intersect(&ray).expect("the floor");
-    let v = Vec3::new(0.8, -0.4, 0.6).normalize();
-    assert!((hit.frame.n.dot(Vec3::Y) - v.z).abs() < 1e-6, "tilt: {}", hit.frame.n);
-    let f = hit.frame;
-    assert!((f.s.length() - 1.0).abs() < 1e-6 && (f.t.length() - 1.0).abs() < 1e-6);
-    assert!(f.s.dot(f.n).abs() < 1e-6 && f.t.dot(f.n).abs() < 1e-6 && f.s.dot(f.t).abs() < 1e-6);
-    assert!((f.s.cross(f.t) - f.n).length() < 1e-5, "right-handed");
-    // The tilt lies in the plane of the surface's own tangents: n′ − (n′ · n) n has the map's
-    // (x, y) in the tangent frame whose first axis is ∂p/∂u, the second n × ∂p/∂u.
-    let tangential = f.n - v.z * Vec3::Y;
-    assert!((tangential.length() - (v.x * v.x + v.y * v.y).sqrt()).abs() < 1e-5);
+    assert!(
+        (hit.frame.n - Vec3::Y).length() < 1e-6,
+        "the hit keeps its frame: {}",
+        hit.frame.n
+    );
+    let bsdf = scene.bsdf(&hit);
+    let Bsdf::NormalMapped(mapped) = &*bsdf else {
+        panic!("a normal-mapped model: {bsdf:?}")
+    };
+    let m = Vec3::new(0.8, -0.4, 0.6).normalize();
+    assert!((mapped.normal - m).length() < 1e-6, "{}", mapped.normal);
+    let wo = hit.frame.to_local(-ray.d);
+    for k in 0..64 {
+        let (a, z) = (k as f32 * 2.4, (k as f32 + 0.5) / 64.0);
+        let r = (1.0 - z * z).sqrt();
+        let wi = Vec3::new(r * a.cos(), r * a.sin(), z);
+        let want = 0.5 * FRAC_1_PI * wi.dot(m).max(0.0) * mapped.shadowing(z);
+        let got = bsdf.eval(wo, wi, TransportMode::Radiance).x * z;
+        assert!((got - want).abs() < 1e-5, "wi = {wi}: {got} vs {want}");
+    }
 }
 
-/// A room whose floor and back wall carry a normal map of tilted tiles (a 4 × 4 PNG read raw)
-/// under an area light and a point light.
+/// A room whose floor carries a bump map and whose back wall a normal map (the same 4 × 4 PNG
+/// of tilted tiles, read raw: as heights, its luminance) under an area light.
 fn mapped_room(png: &str) -> String {
     format!(
         r#"[camera]
@@ -100,8 +141,9 @@ resolution = [12, 9]
 type = "diffuse"
 reflectance = [0.7, 0.7, 0.7]
 [materials.tiles]
-type = "normal_map"
-normals = {{ type = "bitmap", file = "{png}", raw = true, filter = "nearest" }}
+type = "bump_map"
+height = {{ type = "bitmap", file = "{png}", raw = true }}
+scale = 0.05
 bsdf = {{ type = "diffuse", reflectance = [0.6, 0.5, 0.4] }}
 [materials.glossy_tiles]
 type = "normal_map"
@@ -149,8 +191,8 @@ fn write_tiles(dir: &std::path::Path) -> String {
     "tiles.png".into()
 }
 
-/// Every strategy sees the mapped frame (it is the hit's shading frame, made where hits are
-/// made), so unbiased ones agree with `path` within 4 standard errors over 6 seeds, `vcm`
+/// Every strategy sees the mapped model (the material's model at the hit or at a path vertex,
+/// the bump map's normal made from the vertex's primitive), so unbiased ones agree with `path` within 4 standard errors over 6 seeds, `vcm`
 /// within 5 %, and `photon_map` keeps the ratio to `path` it has without the map.
 #[test]
 fn strategies_render_a_normal_mapped_room_as_path_does() {
@@ -160,9 +202,9 @@ fn strategies_render_a_normal_mapped_room_as_path_does() {
     let path = image_mean(&scene, "path", "max_depth = 6", 256);
     // The map changes the image: the unmapped room differs by many standard errors.
     let plain = mapped_room(&png)
-        .replace("type = \"normal_map\"\nnormals = { type = \"bitmap\", file = \"tiles.png\", raw = true, filter = \"nearest\" }\nbsdf = { type = \"diffuse\", reflectance = [0.6, 0.5, 0.4] }", "type = \"diffuse\"\nreflectance = [0.6, 0.5, 0.4]")
+        .replace("type = \"bump_map\"\nheight = { type = \"bitmap\", file = \"tiles.png\", raw = true }\nscale = 0.05\nbsdf = { type = \"diffuse\", reflectance = [0.6, 0.5, 0.4] }", "type = \"diffuse\"\nreflectance = [0.6, 0.5, 0.4]")
         .replace("type = \"normal_map\"\nnormals = { type = \"bitmap\", file = \"tiles.png\", raw = true }\nbsdf = { type = \"rough_conductor\", material = \"Cu\", alpha = 0.3 }", "type = \"rough_conductor\"\nmaterial = \"Cu\"\nalpha = 0.3");
-    assert!(!plain.contains("normal_map"));
+    assert!(!plain.contains("normal_map") && !plain.contains("bump_map"));
     let unmapped = image_mean(
         &load(dir.path(), "plain.toml", &plain).unwrap(),
         "path",
@@ -210,7 +252,74 @@ fn mitsuba_normal_maps_are_read() {
     ] {
         let xml = mitsuba_scene(&format!(r#"<shape type="rectangle">{bsdf}</shape>"#));
         let scene = load(dir.path(), "scene.xml", &xml).unwrap_or_else(|e| panic!("{bsdf}: {e}"));
-        assert!(scene.materials.iter().any(|m| m.normal_map.is_some()), "{bsdf}");
+        assert!(
+            scene.materials.iter().any(|m| matches!(m.bsdf, Bsdf::NormalMapped(_))),
+            "{bsdf}"
+        );
+    }
+}
+
+/// A Mitsuba rectangle (side 2: ∂p/∂u = 2 x̂, ∂p/∂v = ±2 ŷ) under a bump map of a 2-texel ramp
+/// (heights 0 and 1, bilinear and repeated: slopes ∂h/∂u = ±2 everywhere) scaled by ½, lit by a
+/// sun along its normal. The displaced ∂p/∂u is (2, 0, ±1), ∂p/∂v (0, ±2, 0): the normal is
+/// (∓2, 0, 4) / √20 wherever the slope's sign, so the floor reflects ρ/π E · 4 / √20.
+#[test]
+fn a_bump_map_tilts_the_normal_by_the_heights_slope() {
+    let dir = tempfile::tempdir().unwrap();
+    image::GrayImage::from_raw(2, 1, vec![0, 255])
+        .unwrap()
+        .save(dir.path().join("ramp.png"))
+        .unwrap();
+    let scene = |scale: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+    <sensor type="perspective"><float name="fov" value="20"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+    <emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/><rgb name="irradiance" value="2"/></emitter>
+    <shape type="rectangle"><bsdf type="bumpmap"><float name="scale" value="{scale}"/>
+        <texture type="bitmap" name="ramp"><string name="filename" value="ramp.png"/><boolean name="raw" value="true"/></texture>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></bsdf></shape>
+</scene>"#
+        )
+    };
+    for (scale, cos) in [("0.5", 4.0 / 20.0f32.sqrt()), ("0", 1.0)] {
+        let scene = load(dir.path(), "bump.xml", &scene(scale)).unwrap();
+        let img = render(&scene, "path", "max_depth = 1", 16, 1);
+        let want = FRAC_1_PI * 0.5 * 2.0 * cos;
+        for p in &img.pixels {
+            assert!(
+                (*p - Vec3::splat(want)).abs().max_element() < 1e-5,
+                "scale {scale}: {p} vs {want}"
+            );
+        }
+    }
+}
+
+/// Mitsuba's `bumpmap` read bare, inside `twosided` and inside a `mask`; TOML's `bump_map`; a
+/// scene exported keeps the map.
+#[test]
+fn bump_maps_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = write_tiles(dir.path());
+    let map = format!(
+        r#"<bsdf type="bumpmap"><float name="scale" value="0.1"/><texture name="h" type="bitmap"><boolean name="raw" value="true"/>
+            <string name="filename" value="{png}"/></texture><bsdf type="diffuse"/></bsdf>"#
+    );
+    for bsdf in [
+        map.clone(),
+        format!(r#"<bsdf type="twosided">{map}</bsdf>"#),
+        format!(r#"<bsdf type="mask"><float name="opacity" value="0.5"/>{map}</bsdf>"#),
+    ] {
+        let xml = mitsuba_scene(&format!(r#"<shape type="rectangle">{bsdf}</shape>"#));
+        let scene = load(dir.path(), "scene.xml", &xml).unwrap_or_else(|e| panic!("{bsdf}: {e}"));
+        assert!(
+            scene
+                .materials
+                .iter()
+                .any(|m| m.bump.is_some() && matches!(m.bsdf, Bsdf::NormalMapped(_))),
+            "{bsdf}"
+        );
     }
 }
 
@@ -222,7 +331,7 @@ fn bad_normal_maps_are_refused_in_one_line() {
     for (material, expect) in [
         (
             "type = \"normal_map\"\nnormals = [0.5, 0.5, 1]\nbsdf = { type = \"mask\", opacity = 0.5, bsdf = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] } }",
-            &["materials.grey.bsdf", "mask goes around the normal map"][..],
+            &["materials.grey.bsdf", "a mask goes around them"][..],
         ),
         (
             "type = \"normal_map\"\nnormals = [0.5, 2, 1]\nbsdf = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
@@ -236,6 +345,18 @@ fn bad_normal_maps_are_refused_in_one_line() {
             "type = \"normal_map\"\nnormals = { type = \"bitmap\", file = \"missing.png\", raw = true }\nbsdf = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
             &["materials.grey.normals.file", "missing.png"][..],
         ),
+        (
+            "type = \"bump_map\"\nheight = { type = \"bitmap\", file = \"missing.png\", raw = true }\nbsdf = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+            &["materials.grey.height.file", "missing.png"][..],
+        ),
+        (
+            "type = \"bump_map\"\nheight = 0.5\nscale = nan\nbsdf = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+            &["materials.grey.scale", "finite"][..],
+        ),
+        (
+            "type = \"bump_map\"\nheight = 0.5\nbsdf = { type = \"normal_map\", normals = [0.5, 0.5, 1], bsdf = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] } }",
+            &["materials.grey.bsdf", "bump map"][..],
+        ),
     ] {
         let Err(err) = load(dir.path(), "floor.toml", &toml(material)) else {
             panic!("{material}: accepted")
@@ -243,10 +364,15 @@ fn bad_normal_maps_are_refused_in_one_line() {
         let err = err.to_string();
         assert_refused(&err, expect);
     }
-    let xml = mitsuba_scene(r#"<shape type="rectangle"><bsdf type="normalmap"><bsdf type="diffuse"/></bsdf></shape>"#);
-    let Err(err) = load(dir.path(), "scene.xml", &xml) else {
-        panic!("a normalmap without its texture: accepted")
-    };
-    let err = err.to_string();
-    assert_refused(&err, &["normalmap"]);
+    for (bsdf, expect) in [
+        (r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#, "normalmap"),
+        (r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#, "bumpmap"),
+    ] {
+        let xml = mitsuba_scene(&format!(r#"<shape type="rectangle">{bsdf}</shape>"#));
+        let Err(err) = load(dir.path(), "scene.xml", &xml) else {
+            panic!("{bsdf} without its texture: accepted")
+        };
+        let err = err.to_string();
+        assert_refused(&err, &[expect]);
+    }
 }

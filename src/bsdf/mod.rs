@@ -28,6 +28,8 @@
 //! - [`RoughPlastic`]: a diffuse base under a rough dielectric coating, Mitsuba 3's
 //!   `roughplastic`.
 //! - [`Blend`]: (1 − w) f₀ + w f₁ of two models, Mitsuba 3's `blendbsdf`.
+//! - [`NormalMapped`]: any model under a normal map, as Mitsuba 3.9's `normalmap` (the
+//!   normal the eye sees, the light direction's shadowing, a sampling mixture of two frames).
 //! - [`Coated`]: pbrt-v4's layered `coateddiffuse` and `coatedconductor`, evaluated by random
 //!   walks between a dielectric coating and its base: `eval` and `pdf` are deterministic
 //!   estimates and a sample's f is not `eval`'s (the contract is in `coated.rs`).
@@ -52,6 +54,7 @@ mod lambertian;
 mod microfacet;
 mod mirror;
 pub mod named_conductors;
+mod normal_mapped;
 mod phong;
 mod plastic;
 pub(crate) mod rough_dielectric;
@@ -64,6 +67,8 @@ mod coated_tests;
 #[cfg(test)]
 mod microfacet_tests;
 #[cfg(test)]
+mod normal_mapped_tests;
+#[cfg(test)]
 mod tests;
 
 pub use blend::Blend;
@@ -74,6 +79,7 @@ pub use diffuse_transmission::DiffuseTransmission;
 pub use lambertian::Lambertian;
 pub use microfacet::{MIN_ALPHA, Microfacet, MicrofacetType};
 pub use mirror::Mirror;
+pub use normal_mapped::{NormalMapped, OWN_FRAME_SHARE};
 pub use phong::Phong;
 pub use plastic::{Plastic, fresnel_diffuse_reflectance};
 pub use rough_dielectric::{Lobes, RoughDielectric};
@@ -149,6 +155,8 @@ pub enum Bsdf {
     Blend(Box<Blend>),
     /// A coating over a base, evaluated by random walks ([`Coated`]; [`Bsdf::is_stochastic`]).
     Coated(Box<Coated>),
+    /// A model under a normal map, as Mitsuba 3's `normalmap` ([`NormalMapped`]).
+    NormalMapped(Box<NormalMapped>),
 }
 
 /// A colour parameter that a texture can drive ([`crate::scene::Material::textures`]).
@@ -169,6 +177,8 @@ pub enum ColorParam {
     AlphaU,
     /// α_v alone (a number parameter).
     AlphaV,
+    /// A normal map's colour c, the normal 2c − 1 ([`NormalMapped`]; raw, never sRGB-decoded).
+    NormalMap,
 }
 
 impl ColorParam {
@@ -256,6 +266,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.eval(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.eval(wo, wi, mode),
             Bsdf::OneSided(_) => Vec3::ZERO,
+            Bsdf::NormalMapped(b) => b.eval(wo, wi, mode),
             Bsdf::Blend(b) => b.eval(wo, wi, mode),
             Bsdf::Coated(b) => b.eval(wo, wi, mode),
         }
@@ -276,6 +287,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.pdf(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.pdf(wo, wi),
             Bsdf::OneSided(_) => 0.0,
+            Bsdf::NormalMapped(b) => b.pdf(wo, wi),
             Bsdf::Blend(b) => b.pdf(wo, wi),
             Bsdf::Coated(b) => b.pdf(wo, wi),
         }
@@ -299,6 +311,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::OneSided(b) if wo.z > 0.0 => b.sample(wo, u, u_lobe, mode).filter(|s| s.wi.z > 0.0),
             Bsdf::OneSided(_) => None,
+            Bsdf::NormalMapped(b) => b.sample(wo, u, u_lobe, mode),
             Bsdf::Blend(b) => b.sample(wo, u, u_lobe, mode),
             Bsdf::Coated(b) => b.sample(wo, u, u_lobe, mode),
         }
@@ -308,8 +321,10 @@ impl Bsdf {
     /// (f_s without the delta, [`BsdfSample::f`]) in `mode` and the probability with which
     /// sampling from `wo` chooses it — summed over a blend's models ([`Blend::delta_lobe`]).
     pub fn delta_lobe(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<(Vec3, f32)> {
-        if let Bsdf::Blend(b) = self {
-            return b.delta_lobe(wo, wi, mode);
+        match self {
+            Bsdf::Blend(b) => return b.delta_lobe(wo, wi, mode),
+            Bsdf::NormalMapped(b) => return b.delta_lobe(wo, wi, mode),
+            _ => {}
         }
         // Every other model has at most two delta lobes, told apart by u_lobe: a mirror's one,
         // a dielectric's reflection (u_lobe < F) and refraction, a plastic's coating first.
@@ -344,6 +359,11 @@ impl Bsdf {
         use ColorParam::*;
         let field = match (self, param) {
             (Bsdf::OneSided(b), _) => return b.set_color(param, c),
+            (Bsdf::NormalMapped(b), NormalMap) => {
+                b.set_colour(c);
+                return true;
+            }
+            (Bsdf::NormalMapped(b), _) => return b.nested.set_color(param, c),
             // The base's colour (pbrt's `reflectance` of a coated diffuse, a conductor's tint).
             (Bsdf::Coated(b), Reflectance | SpecularReflectance) => return b.base.set_color(param, c),
             (Bsdf::Blend(b), Weight) => {
@@ -380,6 +400,7 @@ impl Bsdf {
     pub fn kind(&self) -> SurfaceKind {
         match self {
             Bsdf::OneSided(b) => b.kind(),
+            Bsdf::NormalMapped(b) => b.nested.kind(),
             Bsdf::Coated(b) if b.is_mirror() => SurfaceKind::Specular,
             Bsdf::Coated(b) if b.base.kind() == SurfaceKind::Diffuse || b.albedo.cmpgt(Vec3::ZERO).any() => {
                 SurfaceKind::Diffuse
@@ -410,6 +431,7 @@ impl Bsdf {
     pub fn is_transmissive(&self) -> bool {
         match self {
             Bsdf::OneSided(b) => return b.is_transmissive(),
+            Bsdf::NormalMapped(b) => return b.nested.is_transmissive(),
             Bsdf::Blend(b) => return b.bsdfs.iter().any(Bsdf::is_transmissive),
             _ => {}
         }
@@ -424,6 +446,7 @@ impl Bsdf {
     pub fn is_anisotropic(&self) -> bool {
         match self {
             Bsdf::OneSided(b) => b.is_anisotropic(),
+            Bsdf::NormalMapped(b) => b.nested.is_anisotropic(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::is_anisotropic),
             Bsdf::Coated(b) => {
                 b.base.is_anisotropic() || matches!(&b.coat, Coat::Rough(d) if !d.distribution.is_isotropic())
@@ -442,6 +465,7 @@ impl Bsdf {
     pub fn mixes_delta(&self) -> bool {
         match self {
             Bsdf::OneSided(b) => b.mixes_delta(),
+            Bsdf::NormalMapped(b) => b.nested.mixes_delta(),
             Bsdf::Plastic(b) => has_energy(b.diffuse_reflectance),
             Bsdf::Coated(b) => b.mixes_delta(),
             // A delta lobe in one model beside a non-delta one in either.
@@ -460,6 +484,7 @@ impl Bsdf {
         match self {
             Bsdf::OneSided(b) if wo.z > 0.0 => b.delta_probability(wo),
             Bsdf::OneSided(_) => 0.0,
+            Bsdf::NormalMapped(b) => b.delta_probability(wo),
             Bsdf::Plastic(b) if has_energy(b.diffuse_reflectance) => b.specular_probability(wo.z.abs()),
             Bsdf::Blend(b) => b.delta_probability(wo),
             Bsdf::Coated(b) => b.delta_probability(wo),
@@ -493,6 +518,8 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
             Bsdf::Plastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
             Bsdf::OneSided(b) => b.albedo(),
+            // A rotation of the nested model's lobes, shadowed: its bound (radiance transport).
+            Bsdf::NormalMapped(b) => b.nested.albedo(),
             // Either model may have the whole surface where a texture drives the weight.
             Bsdf::Blend(b) => b.bsdfs[0].albedo().max(b.bsdfs[1].albedo()),
             // F + (1 − F) ρ_inside ≤ 1: the coating's Fresnel reflection alone reaches 1 at
@@ -610,6 +637,13 @@ impl Bsdf {
                 "one_sided wraps a reflecting model (not a transmitting one, nor another one_sided)",
             )),
             Bsdf::OneSided(b) => b.validate(),
+            Bsdf::NormalMapped(b) if b.nested.is_stochastic() || matches!(b.nested, Bsdf::NormalMapped(_)) => {
+                Err(Error::new(
+                    "a normal map wraps a model evaluated in closed form (not a layered one, nor another normal map)",
+                ))
+            }
+            Bsdf::NormalMapped(b) if !b.normal.is_finite() => Err(Error::new("a normal map's normal must be finite")),
+            Bsdf::NormalMapped(b) => b.nested.validate(),
             Bsdf::Blend(b) => {
                 if !(0.0..=1.0).contains(&b.weight) {
                     return Err(Error::new(format!("weight must lie in [0, 1], got {}", b.weight)));
@@ -628,6 +662,7 @@ impl Bsdf {
     pub fn is_stochastic(&self) -> bool {
         match self {
             Bsdf::OneSided(b) => b.is_stochastic(),
+            Bsdf::NormalMapped(b) => b.nested.is_stochastic(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::is_stochastic),
             Bsdf::Coated(b) => !b.is_mirror(),
             _ => false,

@@ -33,7 +33,7 @@ fn ward(kd: f32, ks: f32, alpha_x: f32, alpha_y: f32) -> Bsdf {
     })
 }
 
-fn lambertian(rho: f32) -> Bsdf {
+pub(super) fn lambertian(rho: f32) -> Bsdf {
     Bsdf::Lambertian(Lambertian {
         reflectance: Vec3::splat(rho),
     })
@@ -149,6 +149,29 @@ pub(super) fn non_delta_models() -> Vec<(&'static str, Bsdf)> {
             ),
         ),
         (
+            "normal map 37° lambertian",
+            normal_mapped(lambertian(0.8), Vec3::new(0.8, 0.5, 0.9)),
+        ),
+        (
+            "normal map 76° one-sided roughplastic",
+            normal_mapped(
+                Bsdf::OneSided(Box::new(rough_plastic(
+                    0.5,
+                    1.49,
+                    microfacet(Ggx, 0.2, 0.2, true),
+                    false,
+                ))),
+                Vec3::new(0.9, 0.5, 0.6),
+            ),
+        ),
+        (
+            "normal map 40° roughconductor aniso",
+            normal_mapped(
+                rough_conductor(None, microfacet(Ggx, 0.05, 0.4, true)),
+                Vec3::new(0.7, 0.35, 0.8),
+            ),
+        ),
+        (
             "blend 0.6 roughdielectric + diffuse_transmission",
             blend(
                 0.6,
@@ -157,6 +180,11 @@ pub(super) fn non_delta_models() -> Vec<(&'static str, Bsdf)> {
             ),
         ),
     ]
+}
+
+/// `nested` under a normal map of colour `c`.
+pub(super) fn normal_mapped(nested: Bsdf, c: Vec3) -> Bsdf {
+    Bsdf::NormalMapped(Box::new(NormalMapped::new(nested, c)))
 }
 
 /// (1 − w) `a` + w `b`.

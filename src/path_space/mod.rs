@@ -320,7 +320,13 @@ impl Vertex {
 
     #[inline]
     pub fn bsdf<'a>(&self, scene: &'a Scene) -> Cow<'a, Bsdf> {
-        scene.materials[self.material as usize].bsdf_at(|| self.uv)
+        let at = crate::scene::SurfacePoint {
+            p: self.p,
+            ng: self.ng,
+            frame: &self.frame,
+            prim: self.prim,
+        };
+        scene.bsdf_of(self.material, at, || self.uv)
     }
 
     /// The opacity α of a surface vertex's material there ([`crate::scene::Material::opacity`]).

@@ -48,9 +48,16 @@ pub struct Material {
     /// Mitsuba's `mask`: the probability α in (0, 1] that light meeting the surface scatters by
     /// `bsdf` rather than passing straight through ([`Scene::intersect`]); `None` is opaque.
     pub opacity: Option<Scalar>,
-    /// Mitsuba's `normalmap`: colours c whose 2c − 1 is the shading normal in the hit's own
-    /// shading frame ([`Scene::surface_hit`]); `None` keeps the frame.
-    pub normal_map: Option<Texture>,
+    /// Mitsuba's `bumpmap`: the height field whose gradient sets the normal of the model (a
+    /// [`Bsdf::NormalMapped`]) at every hit ([`Scene::bsdf_of`]); `None` otherwise.
+    pub bump: Option<Bump>,
+}
+
+/// A bump map's height field: `scale` × the luminance of `height` at (u, v).
+#[derive(Clone, Debug)]
+pub struct Bump {
+    pub height: Texture,
+    pub scale: f32,
 }
 
 impl Material {
@@ -61,7 +68,7 @@ impl Material {
             bsdf,
             textures: Vec::new(),
             opacity: None,
-            normal_map: None,
+            bump: None,
         }
     }
 
@@ -106,22 +113,16 @@ impl Material {
                 .any(|(p, _)| matches!(p, ColorParam::AlphaU | ColorParam::AlphaV))
     }
 
+    /// Whether the shading frame's tangent must be ∂p/∂u: for an anisotropic model, and for a
+    /// normal map (its normals live in the texture's tangent space).
+    pub fn needs_dp_du(&self) -> bool {
+        self.is_anisotropic() || matches!(self.bsdf, Bsdf::NormalMapped(_))
+    }
+
     /// Whether anything about the material varies with (u, v).
     fn is_textured(&self) -> bool {
-        !self.textures.is_empty() || matches!(self.opacity, Some(Scalar::Texture(_)))
+        !self.textures.is_empty() || matches!(self.opacity, Some(Scalar::Texture(_))) || self.bump.is_some()
     }
-}
-
-/// The shading frame a normal map gives (Mitsuba 3's `normalmap`): the colour `c` read at the
-/// hit is the normal 2c − 1 in the hit's own shading frame `frame` (whose tangent is ∂p/∂u); the
-/// new frame has that normal, normalised, and ∂p/∂u (`dp_du`) made orthogonal to it as its
-/// tangent. A colour that gives no direction (2c − 1 = 0) keeps the frame.
-fn normal_mapped(frame: &Frame, c: Vec3, dp_du: Vec3) -> Frame {
-    let n = frame.to_world(2.0 * c - Vec3::ONE).normalize_or_zero();
-    if n == Vec3::ZERO {
-        return *frame;
-    }
-    Frame::from_normal_tangent(n, dp_du)
 }
 
 /// Where a primitive's texture coordinates (u, v) come from, as Mitsuba 3 defines them.
@@ -207,6 +208,15 @@ pub struct Scene {
 pub struct Emitters {
     pub environment: Option<Environment>,
     pub delta: Vec<DeltaLight>,
+}
+
+/// Where on a surface a model is evaluated: what a bump map needs besides (u, v).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint<'a> {
+    pub p: Vec3,
+    pub ng: Vec3,
+    pub frame: &'a Frame,
+    pub prim: u32,
 }
 
 /// A ray's hit on a surface, with its local shading frame.
@@ -440,7 +450,7 @@ impl Scene {
         // texture's); other materials keep the frame they always had (so that their images stay
         // bit-identical to earlier versions).
         let material = &self.materials[attrs.material as usize];
-        let needs_dp_du = material.is_anisotropic() || material.normal_map.is_some();
+        let needs_dp_du = material.needs_dp_du();
         let (p, ng, ns, tangent) = match self.primitives[i] {
             Primitive::Triangle([a, b, c]) => {
                 bary = pull_off_edges(hit.b);
@@ -482,7 +492,7 @@ impl Scene {
                 (center + radius * dir, n, n, tangent)
             }
         };
-        let mut surface = SurfaceHit {
+        SurfaceHit {
             t: hit.t,
             p,
             ng,
@@ -490,17 +500,64 @@ impl Scene {
             prim: hit.prim,
             material: attrs.material,
             bary,
-        };
-        if let Some(normals) = &material.normal_map {
-            surface.frame = normal_mapped(&surface.frame, normals.eval(self.uv(&surface)), tangent);
         }
-        surface
     }
 
     /// The reflectance model at a hit, its textures evaluated there.
     #[inline]
     pub fn bsdf(&self, hit: &SurfaceHit) -> Cow<'_, Bsdf> {
-        self.materials[hit.material as usize].bsdf_at(|| self.uv(hit))
+        let at = SurfacePoint {
+            p: hit.p,
+            ng: hit.ng,
+            frame: &hit.frame,
+            prim: hit.prim,
+        };
+        self.bsdf_of(hit.material, at, || self.uv(hit))
+    }
+
+    /// The model of `material` at a point of a surface, with texture coordinates `uv`: its
+    /// textures evaluated there and, under a bump map, the normal of the displaced surface.
+    #[inline]
+    pub fn bsdf_of(&self, material: u32, at: SurfacePoint, uv: impl FnOnce() -> Vec2) -> Cow<'_, Bsdf> {
+        let material = &self.materials[material as usize];
+        let Some(bump) = &material.bump else {
+            return material.bsdf_at(uv);
+        };
+        let uv = uv();
+        let mut bsdf = material.bsdf_at(|| uv).into_owned();
+        if let Bsdf::NormalMapped(b) = &mut bsdf {
+            b.normal = self.bumped_normal(bump, &at, uv);
+        }
+        Cow::Owned(bsdf)
+    }
+
+    /// The normal a bump map gives, in the point's shading frame (Mitsuba 3's `bumpmap`): the
+    /// surface's ∂p/∂u and ∂p/∂v lose their normal components and gain the height's slopes
+    /// (∂h/∂u, ∂h/∂v) along the normal; the displaced normal is their cross product, turned to
+    /// the geometric normal's side.
+    fn bumped_normal(&self, bump: &Bump, at: &SurfacePoint, uv: Vec2) -> Vec3 {
+        let slope = bump.scale * bump.height.gradient_number(uv);
+        let (dp_du, dp_dv) = self.dp_duv(at.prim, at.p);
+        let (du, dv) = (at.frame.to_local(dp_du), at.frame.to_local(dp_dv));
+        let n = Vec3::new(du.x, du.y, slope.x).cross(Vec3::new(dv.x, dv.y, slope.y));
+        let n = if n.dot(at.frame.to_local(at.ng)) < 0.0 { -n } else { n };
+        n.try_normalize().unwrap_or(Vec3::Z)
+    }
+
+    /// ∂p/∂u and ∂p/∂v of primitive `prim` at its point `p` (Mitsuba's, from [`UvMap`]).
+    fn dp_duv(&self, prim: u32, p: Vec3) -> (Vec3, Vec3) {
+        let i = prim as usize;
+        match self.primitives[i] {
+            Primitive::Triangle(tri) => triangle_dp_duv(tri, self.attrs[i].uv),
+            Primitive::Sphere { center, radius } => {
+                let dir = (p - center).normalize();
+                let world_to_local = match self.attrs[i].uv {
+                    UvMap::Sphere { world_to_local } => world_to_local,
+                    _ => Mat3::IDENTITY,
+                };
+                sphere_dp_duv(world_to_local, world_to_local * dir, radius)
+            }
+        }
     }
 
     /// Texture coordinates of a hit when its material has textures, zero otherwise (what a
@@ -632,13 +689,35 @@ fn bounds_of(primitives: &[Primitive]) -> (Vec3, Vec3) {
 /// models follow it): from the vertices' texture coordinates when they have some and they are
 /// not degenerate, otherwise b − a (∂p/∂u of the barycentric parameterization), as Mitsuba.
 #[inline]
-fn triangle_dp_du([a, b, c]: [Vec3; 3], uv: UvMap) -> Vec3 {
+fn triangle_dp_du(tri: [Vec3; 3], uv: UvMap) -> Vec3 {
+    triangle_dp_duv(tri, uv).0
+}
+
+/// ∂p/∂u and ∂p/∂v of a triangle: from its vertices' (u, v), or (b₁, b₂) without them (then
+/// b − a and c − a); degenerate coordinates fall back to the latter.
+fn triangle_dp_duv([a, b, c]: [Vec3; 3], uv: UvMap) -> (Vec3, Vec3) {
     if let UvMap::Vertices([ta, tb, tc]) = uv {
         let (d1, d2) = (tb - ta, tc - ta);
         let det = d1.x * d2.y - d1.y * d2.x;
         if det.abs() > 1e-12 {
-            return ((b - a) * d2.y - (c - a) * d1.y) / det;
+            let (e1, e2) = (b - a, c - a);
+            return ((e1 * d2.y - e2 * d1.y) / det, (e2 * d1.x - e1 * d2.x) / det);
         }
     }
-    b - a
+    (b - a, c - a)
+}
+
+/// ∂p/∂u and ∂p/∂v of a sphere of `radius` at local unit direction `l` (u = φ / 2π, v = θ / π
+/// in its own frame, [`UvMap::Sphere`]), in world coordinates.
+fn sphere_dp_duv(world_to_local: Mat3, l: Vec3, radius: f32) -> (Vec3, Vec3) {
+    let sin_theta = (l.x * l.x + l.y * l.y).sqrt();
+    let (cos_phi, sin_phi) = if sin_theta > 0.0 {
+        (l.x / sin_theta, l.y / sin_theta)
+    } else {
+        (1.0, 0.0)
+    };
+    let du = 2.0 * PI * radius * Vec3::new(-l.y, l.x, 0.0);
+    let dv = PI * radius * Vec3::new(l.z * cos_phi, l.z * sin_phi, -sin_theta);
+    let to_world = world_to_local.transpose();
+    (to_world * du, to_world * dv)
 }

@@ -27,6 +27,7 @@ pub enum MaterialDesc {
     OneSided(OneSided),
     Mask(Mask),
     NormalMap(NormalMap),
+    BumpMap(BumpMap),
     Blend(Blend),
     Coated(Coated),
 }
@@ -74,7 +75,20 @@ pub struct Mask {
 pub struct NormalMap {
     /// A texture, or one RGB triple for the whole surface; components in [0, 1].
     pub normals: Color,
-    /// Any material but a mask or another normal map (a mask goes around the normal map).
+    /// Any material but a mask, a bump map or another normal map (a mask goes around it).
+    pub bsdf: Box<MaterialDesc>,
+}
+
+/// Mitsuba's `bumpmap`: the surface displaced along its normal by `scale` × a height h(u, v),
+/// the nested material shaded with the displaced surface's normal.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BumpMap {
+    /// The height: a texture whose luminance is h (a number is a flat map).
+    pub height: ScalarDesc,
+    /// Multiplies the height (default 1, as Mitsuba).
+    pub scale: Option<f64>,
+    /// Any material but a mask, a normal map or another bump map.
     pub bsdf: Box<MaterialDesc>,
 }
 

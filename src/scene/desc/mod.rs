@@ -109,6 +109,11 @@
 //! bsdf = { type = "diffuse", reflectance = [0.6, 0.5, 0.4] }  # (tangent ∂p/∂u); a texture or
 //!                                   # one RGB triple; any material but a mask (which goes
 //!                                   # around the normal map) or another normal map
+//! [materials.dimpled]
+//! type = "bump_map"                 # Mitsuba's bumpmap: the surface displaced along its
+//! height = { type = "bitmap", file = "textures/tiles_normals.png", raw = true }  # normal by
+//! scale = 0.02                      # scale (default 1) × the height's luminance; shaded with
+//! bsdf = { type = "diffuse", reflectance = [0.6, 0.5, 0.4] }  # the displaced normal
 //! [materials.worn_gold]
 //! type = "blend"                    # Mitsuba's blendbsdf: (1 − w) × bsdfs[0] + w × bsdfs[1]
 //! weight = 0.3                      # w in [0, 1] (default 0.5) or a texture's luminance

@@ -114,11 +114,23 @@ pub(super) fn material_xml(
             format!("    <bsdf type=\"mask\" id=\"{id}\">\n{opacity}{inner}    </bsdf>\n")
         }
         MaterialDesc::NormalMap(m) => {
-            // The nested material as it would stand alone, its id moved to the normal map.
-            let inner = material_xml(&m.bsdf, one_sided, id, field, file, files, warnings)?;
-            let inner = indented(&inner.replacen(&format!(" id=\"{id}\""), "", 1));
             let normals = files.color("normalmap", &m.normals, OUTER)?;
-            format!("    <bsdf type=\"normalmap\" id=\"{id}\">\n{normals}{inner}    </bsdf>\n")
+            let nested = |one_sided| material_xml(&m.bsdf, one_sided, id, field, file, files, &mut *warnings);
+            surface_map_xml("normalmap", &normals, &m.bsdf, one_sided, id, nested)?
+        }
+        // A constant height is a flat surface: the nested material alone (Mitsuba's bumpmap
+        // takes only a texture).
+        MaterialDesc::BumpMap(m) if matches!(m.height, desc::ScalarDesc::Value(_)) => {
+            material_xml(&m.bsdf, one_sided, id, field, file, files, warnings)?
+        }
+        MaterialDesc::BumpMap(m) => {
+            let height = scalar_xml("height", Some(&m.height), files)?;
+            let props = format!(
+                "{OUTER}<float name=\"scale\" value=\"{}\"/>\n{height}",
+                m.scale.unwrap_or(1.0)
+            );
+            let nested = |one_sided| material_xml(&m.bsdf, one_sided, id, field, file, files, &mut *warnings);
+            surface_map_xml("bumpmap", &props, &m.bsdf, one_sided, id, nested)?
         }
         MaterialDesc::Blend(b) => {
             // Each model as it would stand alone (its own sidedness), without an id.
@@ -166,6 +178,38 @@ fn scalar_xml_at(name: &str, v: Option<&desc::ScalarDesc>, files: &Files, indent
         Some(desc::ScalarDesc::Value(v)) => Ok(format!("{indent}<float name=\"{name}\" value=\"{v}\"/>\n")),
         Some(desc::ScalarDesc::Texture(t)) => files.color(name, &Color::Texture(t.clone()), indent),
     }
+}
+
+/// A `normalmap` or `bumpmap` (`kind`, its properties `props`) around `bsdf`, written by
+/// `nested(one_sided)`. Ours mirror the map below the surface for a two-sided reflecting
+/// material, which is Mitsuba's `twosided(kind(bare material))` (a `twosided` inside the map
+/// would flip the directions after the map has chosen its normal); other materials keep their
+/// sidedness inside the map.
+fn surface_map_xml(
+    kind: &str,
+    props: &str,
+    bsdf: &MaterialDesc,
+    one_sided: bool,
+    id: &str,
+    nested: impl FnOnce(bool) -> Result<String>,
+) -> Result<String> {
+    let transmits = matches!(
+        bsdf,
+        MaterialDesc::Dielectric(_)
+            | MaterialDesc::ThinDielectric(_)
+            | MaterialDesc::RoughDielectric(_)
+            | MaterialDesc::DiffuseTransmission(_)
+    );
+    let mirrored = !one_sided && !transmits && !matches!(bsdf, MaterialDesc::OneSided(_));
+    let id_attr = format!(" id=\"{id}\"");
+    let inner = indented(&nested(one_sided || mirrored)?.replacen(&id_attr, "", 1));
+    let map = format!("    <bsdf type=\"{kind}\"{id_attr}>\n{props}{inner}    </bsdf>\n");
+    Ok(if mirrored {
+        let map = indented(&map.replacen(&id_attr, "", 1));
+        format!("    <bsdf type=\"twosided\"{id_attr}>\n{map}    </bsdf>\n")
+    } else {
+        map
+    })
 }
 
 /// A top-level element's lines moved in by one level, to nest it.

@@ -117,25 +117,37 @@ impl<'a> Textures<'a> {
         Ok(hi)
     }
 
-    /// A normal map's colours (`normalmap`'s `normals`): a texture, or one RGB triple as a
-    /// uniform texture; every value finite (a colour c is the tangent-space normal 2c − 1).
-    pub(super) fn normals(&mut self, ctx: &Ctx, field: &str, c: &Color) -> Result<Texture> {
+    /// A normal map's colours (`normalmap`'s `normals`): one RGB triple, returned, or a
+    /// texture, whose every value must be finite, driving [`ColorParam::NormalMap`] (the colour
+    /// returned is then (½, ½, 1), the unmapped normal). A colour c is the normal 2c − 1 in the
+    /// texture's tangent space.
+    pub(super) fn normals(&mut self, ctx: &Ctx, field: &str, c: &Color) -> Result<Vec3> {
         let texture = match c {
-            Color::Rgb(v) => {
-                let v = rgb(ctx.unit_rgb(field, *v)?);
-                Texture::Checkerboard(Checkerboard {
-                    color0: v,
-                    color1: v,
-                    to_uv: UvTransform::scale_offset(Vec2::ONE, Vec2::ZERO),
-                })
-            }
+            Color::Rgb(v) => return Ok(rgb(ctx.unit_rgb(field, *v)?)),
             Color::Texture(t) => self.texture(ctx, field, t)?,
         };
         let (lo, hi) = (texture.min(), texture.max());
         if !(lo.is_finite() && hi.is_finite()) {
             return Err(ctx.err(field, "expected finite texture values (a normal map's colours)"));
         }
-        Ok(texture)
+        self.params.push((ColorParam::NormalMap, texture));
+        Ok(Vec3::new(0.5, 0.5, 1.0))
+    }
+
+    /// A bump map's height: a texture (its luminance; every value finite), or `None` for a
+    /// number, a flat surface.
+    pub(super) fn height(&mut self, ctx: &Ctx, field: &str, h: &ScalarDesc) -> Result<Option<Texture>> {
+        match h {
+            ScalarDesc::Value(v) if v.is_finite() => Ok(None),
+            ScalarDesc::Value(v) => Err(ctx.err(field, format!("expected a finite height, got {v}"))),
+            ScalarDesc::Texture(t) => {
+                let texture = self.texture(ctx, field, t)?;
+                if !(texture.min().is_finite() && texture.max().is_finite()) {
+                    return Err(ctx.err(field, "expected finite texture values (a bump map's heights)"));
+                }
+                Ok(Some(texture))
+            }
+        }
     }
 
     fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {

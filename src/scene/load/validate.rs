@@ -5,14 +5,15 @@ use super::rough;
 use super::textures::Textures;
 use super::*;
 use crate::bsdf::{
-    Blend, Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, Phong, ThinDielectric, Ward,
+    Blend, Bsdf, ColorParam, Dielectric, DiffuseTransmission, Lambertian, Mirror, NormalMapped, Phong, ThinDielectric,
+    Ward,
 };
 use crate::camera::{Camera, Lens};
 use crate::error::Result;
 use crate::pixel_filter::{FilterKind, MAX_RADIUS, PixelFilter};
 use crate::resources::{check_memory, film_bytes, memory_limit};
-use crate::scene::Material;
 use crate::scene::desc::{self, MaterialDesc, Triple};
+use crate::scene::{Bump, Material};
 use glam::{DVec3, Vec3};
 use std::collections::BTreeMap;
 
@@ -266,8 +267,8 @@ pub(super) fn materials(
         let field = format!("materials.{}", key_string(name));
         validate_material(ctx, &field, d)?;
         index.insert(name.clone(), out.len() as u32);
-        // Wrappers that are properties of the surface, not of the model: a mask outermost, then
-        // a normal map (validation refuses them anywhere else).
+        // A mask is a property of the surface, not of the model: outermost (validation refuses
+        // it anywhere else).
         let (d, field, opacity) = match d {
             MaterialDesc::Mask(m) => {
                 let opacity = m.opacity.clone().unwrap_or(desc::ScalarDesc::Value(0.5));
@@ -279,13 +280,14 @@ pub(super) fn materials(
             }
             d => (d, field, None),
         };
-        let (d, field, normal_map) = match d {
-            MaterialDesc::NormalMap(m) => (
-                &*m.bsdf,
-                format!("{field}.bsdf"),
-                Some(textures.normals(ctx, &format!("{field}.normals"), &m.normals)?),
-            ),
-            d => (d, field, None),
+        let bump = match d {
+            MaterialDesc::BumpMap(m) => textures
+                .height(ctx, &format!("{field}.height"), &m.height)?
+                .map(|height| Bump {
+                    height,
+                    scale: m.scale.unwrap_or(1.0) as f32,
+                }),
+            _ => None,
         };
         let bsdf = make_bsdf(ctx, &field, d, textures)?;
         out.push(Material {
@@ -293,7 +295,7 @@ pub(super) fn materials(
             bsdf,
             textures: std::mem::take(&mut textures.params),
             opacity,
-            normal_map,
+            bump,
         });
     }
     Ok((out, index))
@@ -369,6 +371,7 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                     | MaterialDesc::OneSided(_)
                     | MaterialDesc::Mask(_)
                     | MaterialDesc::NormalMap(_)
+                    | MaterialDesc::BumpMap(_)
             ) {
                 return Err(ctx.err(
                     &f("bsdf"),
@@ -386,10 +389,13 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
             }
             for (i, b) in m.bsdfs.iter().enumerate() {
                 let field = format!("{field}.bsdfs[{i}]");
-                if matches!(b, MaterialDesc::Mask(_) | MaterialDesc::NormalMap(_)) {
+                if matches!(
+                    b,
+                    MaterialDesc::Mask(_) | MaterialDesc::NormalMap(_) | MaterialDesc::BumpMap(_)
+                ) {
                     return Err(ctx.err(
                         &field,
-                        "expected a material that is not a mask or a normal map (they go around the blend)",
+                        "expected a material that is not a mask, a normal map or a bump map (they go around the blend)",
                     ));
                 }
                 validate_material(ctx, &field, b)?;
@@ -410,14 +416,22 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
             }
             validate_material(ctx, &f("bsdf"), &m.bsdf)?;
         }
-        MaterialDesc::NormalMap(m) => {
-            if matches!(*m.bsdf, MaterialDesc::Mask(_) | MaterialDesc::NormalMap(_)) {
+        MaterialDesc::NormalMap(desc::NormalMap { bsdf, .. }) | MaterialDesc::BumpMap(desc::BumpMap { bsdf, .. }) => {
+            if matches!(
+                **bsdf,
+                MaterialDesc::Mask(_) | MaterialDesc::NormalMap(_) | MaterialDesc::BumpMap(_)
+            ) {
                 return Err(ctx.err(
                     &f("bsdf"),
-                    "expected a material that is not a mask or a normal map (a mask goes around the normal map)",
+                    "expected a material that is not a mask, a normal map or a bump map (a mask goes around them)",
                 ));
             }
-            validate_material(ctx, &f("bsdf"), &m.bsdf)?;
+            if let MaterialDesc::BumpMap(b) = d
+                && !b.scale.unwrap_or(1.0).is_finite()
+            {
+                return Err(ctx.err(&f("scale"), "expected a finite number"));
+            }
+            validate_material(ctx, &f("bsdf"), bsdf)?;
         }
     }
     Ok(())
@@ -497,10 +511,19 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         MaterialDesc::OneSided(m) => {
             Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?))
         }
-        // `materials` takes the opacity and the normal map off the outermost materials;
-        // validation refuses them anywhere else.
+        // `materials` takes the opacity off the outermost material; validation refuses a mask
+        // anywhere else.
         MaterialDesc::Mask(m) => make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?,
-        MaterialDesc::NormalMap(m) => make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?,
+        MaterialDesc::NormalMap(m) => {
+            let c = textures.normals(ctx, &format!("{field}.normals"), &m.normals)?;
+            let nested = make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?;
+            Bsdf::NormalMapped(Box::new(NormalMapped::new(nested, c)))
+        }
+        // `materials` takes the height off; the normal is set at every hit (`Scene::bsdf_of`).
+        MaterialDesc::BumpMap(m) => {
+            let nested = make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?;
+            Bsdf::NormalMapped(Box::new(NormalMapped::new(nested, Vec3::new(0.5, 0.5, 1.0))))
+        }
         MaterialDesc::Blend(m) => blend(ctx, field, m, textures)?,
         MaterialDesc::Coated(m) => rough::coated(ctx, field, m, textures, |textures| {
             make_bsdf(ctx, &format!("{field}.base"), &m.base, textures)

@@ -15,6 +15,9 @@ impl<'a, 'i> Reader<'a, 'i> {
         if kind == "normalmap" {
             return self.normal_map(n, Self::bsdf);
         }
+        if kind == "bumpmap" {
+            return self.bump_map(n, Self::bsdf);
+        }
         if kind == "blendbsdf" {
             // Each model keeps its own sidedness (a blended dielectric stays two-sided).
             return self.blend(n, Self::bsdf);
@@ -68,6 +71,9 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         if kind == "normalmap" {
             return self.normal_map(n, Self::one_bsdf);
+        }
+        if kind == "bumpmap" {
+            return self.bump_map(n, Self::one_bsdf);
         }
         let mut o = self.obj(n)?;
         let m = match kind.as_str() {
@@ -270,11 +276,54 @@ impl<'a, 'i> Reader<'a, 'i> {
                     "a mask inside a normalmap is not supported (put the mask outside)",
                 ));
             }
-            "normalmap" => return Err(self.err(inner, "a normalmap inside a normalmap is not supported")),
+            "normalmap" | "bumpmap" => {
+                return Err(self.err(inner, "a normalmap or bumpmap inside a normalmap is not supported"));
+            }
             _ => {}
         }
         Ok(MaterialDesc::NormalMap(desc::NormalMap {
             normals,
+            bsdf: Box::new(nested(self, inner)?),
+        }))
+    }
+
+    /// A `bumpmap`: its `scale`, its one nested texture (any name: the height, read as a
+    /// number) and its one nested BSDF, read by `nested` (sidedness as Mitsuba's, or two-sided).
+    fn bump_map(
+        &mut self,
+        n: Node<'a, 'i>,
+        nested: fn(&mut Self, Node<'a, 'i>) -> Result<MaterialDesc>,
+    ) -> Result<MaterialDesc> {
+        let mut o = self.obj(n)?;
+        let scale = self.float(&mut o, "scale")?;
+        let textures: Vec<Node> = o
+            .children
+            .iter()
+            .copied()
+            .filter(|c| c.has_tag_name("texture") || (c.has_tag_name("ref") && c.attribute("name") != Some("bsdf")))
+            .collect();
+        let [texture] = textures[..] else {
+            return Err(self.err(n, "expected exactly one nested <texture> (the height) in a bumpmap"));
+        };
+        let name = texture.attribute("name").unwrap_or("height").to_string();
+        let height = match self.scalar_texture(&mut o, &name)? {
+            Some(h) => h,
+            None => desc::ScalarDesc::Texture(Box::new(self.texture(texture)?)),
+        };
+        o.children.retain(|c| *c != texture);
+        let inner = self.nested_bsdfs(&o, "bumpmap")?;
+        let [inner] = inner[..] else {
+            return Err(self.err(n, "expected exactly one nested <bsdf> in a bumpmap"));
+        };
+        if let kind @ ("mask" | "normalmap" | "bumpmap") = self.required(inner, "type")?.as_str() {
+            return Err(self.err(
+                inner,
+                format!("a {kind} inside a bumpmap is not supported (a mask goes outside)"),
+            ));
+        }
+        Ok(MaterialDesc::BumpMap(desc::BumpMap {
+            height,
+            scale,
             bsdf: Box::new(nested(self, inner)?),
         }))
     }
