@@ -234,31 +234,6 @@ fn strategies_render_a_normal_mapped_room_as_path_does() {
     );
 }
 
-/// Mitsuba's `normalmap` around a BSDF (as its documentation scene writes it), inside
-/// `twosided` and inside a `mask`: read with the nested model's sidedness; a scene exported
-/// from ours keeps the map.
-#[test]
-fn mitsuba_normal_maps_are_read() {
-    let dir = tempfile::tempdir().unwrap();
-    let png = write_tiles(dir.path());
-    let map = format!(
-        r#"<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><boolean name="raw" value="true"/>
-            <string name="filename" value="{png}"/></texture><bsdf type="diffuse"/></bsdf>"#
-    );
-    for bsdf in [
-        map.clone(),
-        format!(r#"<bsdf type="twosided">{map}</bsdf>"#),
-        format!(r#"<bsdf type="mask"><float name="opacity" value="0.5"/>{map}</bsdf>"#),
-    ] {
-        let xml = mitsuba_scene(&format!(r#"<shape type="rectangle">{bsdf}</shape>"#));
-        let scene = load(dir.path(), "scene.xml", &xml).unwrap_or_else(|e| panic!("{bsdf}: {e}"));
-        assert!(
-            scene.materials.iter().any(|m| matches!(m.bsdf, Bsdf::NormalMapped(_))),
-            "{bsdf}"
-        );
-    }
-}
-
 /// A Mitsuba rectangle (side 2: ∂p/∂u = 2 x̂, ∂p/∂v = ±2 ŷ) under a bump map of a 2-texel ramp
 /// (heights 0 and 1, bilinear and repeated: slopes ∂h/∂u = ±2 everywhere) scaled by ½, lit by a
 /// sun along its normal. The displaced ∂p/∂u is (2, 0, ±1), ∂p/∂v (0, ±2, 0): the normal is
@@ -296,30 +271,67 @@ fn a_bump_map_tilts_the_normal_by_the_heights_slope() {
     }
 }
 
-/// Mitsuba's `bumpmap` read bare, inside `twosided` and inside a `mask`; TOML's `bump_map`; a
-/// scene exported keeps the map.
+/// Mitsuba's `normalmap` and `bumpmap` around a BSDF (as its documentation scenes write them),
+/// inside `twosided` and inside a `mask`: read with the nested model's sidedness (one-sided bare,
+/// mirrored below the surface in `twosided`); exported and read back, the same model.
 #[test]
-fn bump_maps_are_read() {
+fn mitsuba_maps_are_read_and_exported() {
     let dir = tempfile::tempdir().unwrap();
     let png = write_tiles(dir.path());
-    let map = format!(
-        r#"<bsdf type="bumpmap"><float name="scale" value="0.1"/><texture name="h" type="bitmap"><boolean name="raw" value="true"/>
-            <string name="filename" value="{png}"/></texture><bsdf type="diffuse"/></bsdf>"#
-    );
-    for bsdf in [
-        map.clone(),
-        format!(r#"<bsdf type="twosided">{map}</bsdf>"#),
-        format!(r#"<bsdf type="mask"><float name="opacity" value="0.5"/>{map}</bsdf>"#),
+    let texture = |name: &str| {
+        format!(
+            r#"<texture name="{name}" type="bitmap"><boolean name="raw" value="true"/><string name="filename" value="{png}"/></texture>"#
+        )
+    };
+    for (map, bumped) in [
+        (
+            format!(
+                r#"<bsdf type="normalmap">{}<bsdf type="diffuse"/></bsdf>"#,
+                texture("normalmap")
+            ),
+            false,
+        ),
+        (
+            format!(
+                r#"<bsdf type="bumpmap"><float name="scale" value="0.1"/>{}<bsdf type="diffuse"/></bsdf>"#,
+                texture("h")
+            ),
+            true,
+        ),
     ] {
-        let xml = mitsuba_scene(&format!(r#"<shape type="rectangle">{bsdf}</shape>"#));
-        let scene = load(dir.path(), "scene.xml", &xml).unwrap_or_else(|e| panic!("{bsdf}: {e}"));
-        assert!(
-            scene
+        for (bsdf, one_sided) in [
+            (map.clone(), true),
+            (format!(r#"<bsdf type="twosided">{map}</bsdf>"#), false),
+            (
+                format!(r#"<bsdf type="mask"><float name="opacity" value="0.5"/>{map}</bsdf>"#),
+                true,
+            ),
+        ] {
+            let xml = mitsuba_scene(&format!(r#"<shape type="rectangle">{bsdf}</shape>"#));
+            let path = dir.path().join("scene.xml");
+            std::fs::write(&path, &xml).unwrap();
+            let scene = photon_bench::scene::load::load_scene_with_stats(&path)
+                .unwrap_or_else(|e| panic!("{bsdf}: {e}"))
+                .0;
+            let m = scene
                 .materials
                 .iter()
-                .any(|m| m.bump.is_some() && matches!(m.bsdf, Bsdf::NormalMapped(_))),
-            "{bsdf}"
-        );
+                .find(|m| matches!(m.bsdf, Bsdf::NormalMapped(_)))
+                .expect(&bsdf);
+            let Bsdf::NormalMapped(b) = &m.bsdf else { unreachable!() };
+            assert_eq!(matches!(b.nested, Bsdf::OneSided(_)), one_sided, "{bsdf}");
+            assert_eq!(m.bump.is_some(), bumped, "{bsdf}");
+            let out = dir.path().join("back.xml");
+            photon_bench::scene::export::export_file(&path, &out).unwrap();
+            let back = photon_bench::scene::load::load_scene_with_stats(&out).unwrap().0;
+            assert!(
+                back.materials
+                    .iter()
+                    .any(|x| x.bsdf == m.bsdf && x.bump.is_some() == bumped),
+                "{bsdf}: exported as {}",
+                std::fs::read_to_string(&out).unwrap()
+            );
+        }
     }
 }
 
