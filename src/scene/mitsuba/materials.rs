@@ -178,7 +178,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     n,
                     format!(
                         "unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, \
-                         roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, blendbsdf)"
+                         roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, blendbsdf, normalmap, bumpmap)"
                     ),
                 ));
             }
