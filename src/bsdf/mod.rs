@@ -27,6 +27,8 @@
 //! - [`RoughDielectric`]: microfacet reflection and refraction, Mitsuba 3's `roughdielectric`.
 //! - [`RoughPlastic`]: a diffuse base under a rough dielectric coating, Mitsuba 3's
 //!   `roughplastic`.
+//! - [`Pplastic`]: Mitsuba 3's `pplastic` unpolarised — rough specular reflection plus a diffuse
+//!   lobe attenuated by two refractions [Baek et al. 2018].
 //! - [`Blend`]: (1 − w) f₀ + w f₁ of two models, Mitsuba 3's `blendbsdf`.
 //! - [`NormalMapped`]: any model under a normal map, as Mitsuba 3.9's `normalmap` (the
 //!   normal the eye sees, the light direction's shadowing, a sampling mixture of two frames).
@@ -57,6 +59,7 @@ pub mod named_conductors;
 mod normal_mapped;
 mod phong;
 mod plastic;
+mod pplastic;
 pub(crate) mod rough_dielectric;
 mod rough_plastic;
 mod thin_dielectric;
@@ -82,6 +85,7 @@ pub use mirror::Mirror;
 pub use normal_mapped::{NormalMapped, OWN_FRAME_SHARE};
 pub use phong::Phong;
 pub use plastic::{Plastic, fresnel_diffuse_reflectance};
+pub use pplastic::Pplastic;
 pub use rough_dielectric::{Lobes, RoughDielectric};
 pub use rough_plastic::RoughPlastic;
 pub use thin_dielectric::ThinDielectric;
@@ -148,6 +152,8 @@ pub enum Bsdf {
     RoughPlastic(RoughPlastic),
     /// A delta lobe (the coating) over a diffuse one (the base): [`Bsdf::mixes_delta`].
     Plastic(Plastic),
+    /// A rough specular lobe beside a refraction-attenuated diffuse one ([`Pplastic`]).
+    Pplastic(Pplastic),
     /// A reflection model that is black when seen from behind (`wo` or `wi` below the shading
     /// plane): Mitsuba 3's sidedness for a BSDF without its `twosided` wrapper.
     OneSided(Box<Bsdf>),
@@ -264,6 +270,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.eval(wo, wi, mode),
             Bsdf::RoughPlastic(b) => b.eval(wo, wi),
             Bsdf::Plastic(b) => b.eval(wo, wi),
+            Bsdf::Pplastic(b) => b.eval(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.eval(wo, wi, mode),
             Bsdf::OneSided(_) => Vec3::ZERO,
             Bsdf::NormalMapped(b) => b.eval(wo, wi, mode),
@@ -285,6 +292,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.pdf(wo, wi),
             Bsdf::RoughPlastic(b) => b.pdf(wo, wi),
             Bsdf::Plastic(b) => b.pdf(wo, wi),
+            Bsdf::Pplastic(b) => b.pdf(wo, wi),
             Bsdf::OneSided(b) if wo.z > 0.0 && wi.z > 0.0 => b.pdf(wo, wi),
             Bsdf::OneSided(_) => 0.0,
             Bsdf::NormalMapped(b) => b.pdf(wo, wi),
@@ -308,6 +316,7 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.sample(wo, u),
             Bsdf::RoughDielectric(b) => b.sample(wo, u, u_lobe, mode),
             Bsdf::RoughPlastic(b) => b.sample(wo, u, u_lobe),
+            Bsdf::Pplastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::Plastic(b) => b.sample(wo, u, u_lobe),
             Bsdf::OneSided(b) if wo.z > 0.0 => b.sample(wo, u, u_lobe, mode).filter(|s| s.wi.z > 0.0),
             Bsdf::OneSided(_) => None,
@@ -387,6 +396,8 @@ impl Bsdf {
             (Bsdf::RoughPlastic(b), SpecularReflectance) => &mut b.specular_reflectance,
             (Bsdf::Plastic(b), DiffuseReflectance) => &mut b.diffuse_reflectance,
             (Bsdf::Plastic(b), SpecularReflectance) => &mut b.specular_reflectance,
+            (Bsdf::Pplastic(b), DiffuseReflectance) => &mut b.diffuse_reflectance,
+            (Bsdf::Pplastic(b), SpecularReflectance) => &mut b.specular_reflectance,
             (Bsdf::Conductor(b), SpecularReflectance) => &mut b.ior.specular_reflectance,
             (Bsdf::RoughConductor(b), SpecularReflectance) => &mut b.ior.specular_reflectance,
             (Bsdf::RoughDielectric(b), SpecularReflectance) => &mut b.specular_reflectance,
@@ -421,6 +432,8 @@ impl Bsdf {
             Bsdf::Ward(b) if has_energy(b.diffuse) => SurfaceKind::Diffuse,
             Bsdf::RoughPlastic(b) if has_energy(b.diffuse_reflectance) => SurfaceKind::Diffuse,
             Bsdf::Plastic(b) if has_energy(b.diffuse_reflectance) => SurfaceKind::Diffuse,
+            Bsdf::Pplastic(b) if has_energy(b.diffuse_reflectance) => SurfaceKind::Diffuse,
+            Bsdf::Pplastic(_) => SurfaceKind::Glossy,
             Bsdf::Plastic(_) => SurfaceKind::Specular,
             Bsdf::Phong(_) | Bsdf::Ward(_) | Bsdf::RoughPlastic(_) => SurfaceKind::Glossy,
             Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) => SurfaceKind::Glossy,
@@ -453,6 +466,7 @@ impl Bsdf {
             }
             Bsdf::Ward(b) => b.alpha_x != b.alpha_y,
             Bsdf::RoughConductor(b) => b.distribution.alpha_u != b.distribution.alpha_v,
+            Bsdf::Pplastic(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             Bsdf::RoughDielectric(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             _ => false,
         }
@@ -517,6 +531,8 @@ impl Bsdf {
             // The coating splits light between the two lobes: T ρ + (1 − T) R_s ≤ max(ρ, R_s).
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
             Bsdf::Plastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
+            // k_s F + ρ (1 − F)(1 − F̄) ≤ max(ρ, k_s) in every direction.
+            Bsdf::Pplastic(b) => b.diffuse_reflectance.max(b.specular_reflectance),
             Bsdf::OneSided(b) => b.albedo(),
             // A rotation of the nested model's lobes, shadowed: its bound (radiance transport).
             Bsdf::NormalMapped(b) => b.nested.albedo(),
@@ -632,6 +648,15 @@ impl Bsdf {
                 positive("ior", b.ior)?;
                 unit("diffuse_reflectance", b.diffuse_reflectance)?;
                 unit("specular_reflectance", b.specular_reflectance)
+            }
+            Bsdf::Pplastic(b) => {
+                positive("ior", b.ior)?;
+                if b.ior == 1.0 {
+                    return Err(Error::new("ior must differ from 1 (no interface)"));
+                }
+                unit("diffuse_reflectance", b.diffuse_reflectance)?;
+                unit("specular_reflectance", b.specular_reflectance)?;
+                b.distribution.validate()
             }
             Bsdf::OneSided(b) if b.is_transmissive() || matches!(**b, Bsdf::OneSided(_)) => Err(Error::new(
                 "one_sided wraps a reflecting model (not a transmitting one, nor another one_sided)",

@@ -149,6 +149,14 @@ pub(super) fn non_delta_models() -> Vec<(&'static str, Bsdf)> {
             ),
         ),
         (
+            "pplastic beckmann 0.1",
+            pplastic(0.5, 1.0, microfacet(Beckmann, 0.1, 0.1, true)),
+        ),
+        (
+            "pplastic ggx aniso 0.05x0.3 all normals",
+            pplastic(0.3, 0.8, microfacet(Ggx, 0.05, 0.3, false)),
+        ),
+        (
             "normal map 37° lambertian",
             normal_mapped(lambertian(0.8), Vec3::new(0.8, 0.5, 0.9)),
         ),
@@ -180,6 +188,17 @@ pub(super) fn non_delta_models() -> Vec<(&'static str, Bsdf)> {
             ),
         ),
     ]
+}
+
+/// Mitsuba's `pplastic` of diffuse ρ, specular k_s and η = 1.49, its sampling weight from ρ.
+pub(super) fn pplastic(rho: f32, ks: f32, distribution: Microfacet) -> Bsdf {
+    Bsdf::Pplastic(Pplastic::new(
+        Vec3::splat(rho),
+        Vec3::splat(ks),
+        1.49,
+        distribution,
+        rho,
+    ))
 }
 
 /// `nested` under a normal map of colour `c`.
@@ -694,4 +713,29 @@ fn ward_alpha_x_widens_the_lobe_along_the_tangent() {
     let f = |wi| grey(bsdf.eval(Vec3::Z, wi, TransportMode::Radiance));
     assert!(f(along_x) > 5.0 * f(along_y), "{} vs {}", f(along_x), f(along_y));
     assert!(bsdf.pdf(Vec3::Z, along_x) > 5.0 * bsdf.pdf(Vec3::Z, along_y));
+}
+
+/// Without its specular lobe a `pplastic` is ρ/π attenuated by both refractions: at normal
+/// incidence and exit (1 − F₀)², F₀ = ((η − 1)/(η + 1))²; at 60° the Fresnel reflectance of
+/// that angle enters instead.
+#[test]
+fn pplastic_diffuse_lobe_is_attenuated_by_both_refractions() {
+    let b = Pplastic::new(
+        Vec3::splat(0.6),
+        Vec3::ZERO,
+        1.5,
+        microfacet(MicrofacetType::Ggx, 0.2, 0.2, true),
+        0.6,
+    );
+    let f0 = (0.5f32 / 2.5).powi(2);
+    let f = b.eval(Vec3::Z, Vec3::Z).x;
+    assert!(
+        (f - 0.6 * std::f32::consts::FRAC_1_PI * (1.0 - f0).powi(2)).abs() < 1e-6,
+        "{f}"
+    );
+    let w60 = Vec3::new(0.75f32.sqrt(), 0.0, 0.5);
+    let f = b.eval(Vec3::Z, w60).x;
+    let want = 0.6 * std::f32::consts::FRAC_1_PI * (1.0 - f0) * (1.0 - fresnel_dielectric(0.5, 1.5));
+    assert!((f - want).abs() < 1e-6, "{f} vs {want}");
+    assert_eq!(b.specular_probability, 0.0);
 }

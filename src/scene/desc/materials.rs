@@ -24,6 +24,7 @@ pub enum MaterialDesc {
     RoughDielectric(RoughDielectric),
     RoughPlastic(RoughPlastic),
     Plastic(Plastic),
+    Pplastic(Pplastic),
     OneSided(OneSided),
     Mask(Mask),
     NormalMap(NormalMap),
@@ -293,6 +294,18 @@ rough_material! {
         /// Relative index of the coating; default 1.49 (polypropylene), Mitsuba's default.
         pub ior: Option<f64>,
         pub nonlinear: Option<bool>,
+    }
+}
+
+rough_material! {
+    /// Mitsuba's `pplastic` (unpolarised): a rough specular lobe plus a diffuse lobe attenuated
+    /// by two refractions ([`crate::bsdf::Pplastic`]).
+    Pplastic {
+        /// Default 0.5.
+        pub diffuse_reflectance: Option<Color>,
+        pub specular_reflectance: Option<Triple>,
+        /// Relative index of the interface; default 1.49 (polypropylene), Mitsuba's default.
+        pub ior: Option<f64>,
     }
 }
 

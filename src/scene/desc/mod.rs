@@ -94,6 +94,12 @@
 //! diffuse_reflectance = [0.1, 0.3, 0.6]    # diffuse base (fields as rough_plastic's, no
 //! ior = 1.5                         # roughness); rendered by path, ppg, photon_guided and
 //!                                   # photon_map (the others refuse it)
+//! [materials.satin]
+//! type = "pplastic"                 # Mitsuba's `pplastic` (unpolarised): a rough specular lobe
+//! diffuse_reflectance = [0.3, 0.2, 0.5]    # plus a diffuse one attenuated by two refractions
+//! ior = 1.49                        # (no internal reflection); default 1.49; alpha or
+//! distribution = "ggx"              # alpha_u and alpha_v; specular_reflectance as
+//! alpha = 0.06                      # rough_plastic's
 //! [materials.matte_front]
 //! type = "one_sided"                # black from behind, as Mitsuba's BSDFs without `twosided`
 //! bsdf = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }   # any reflecting material

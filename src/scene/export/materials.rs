@@ -94,6 +94,17 @@ pub(super) fn material_xml(
             &roughness_props(&p.roughness(), INNER, files).map_err(|e| e.context(format!("{file}: {field}")))?,
             files,
         )?),
+        MaterialDesc::Pplastic(p) => twosided(format!(
+            "        <bsdf type=\"pplastic\">\n{INNER}<float name=\"int_ior\" value=\"{}\"/>\n{INNER}\
+             <float name=\"ext_ior\" value=\"1\"/>\n{}{}{}        </bsdf>\n",
+            p.ior.unwrap_or(crate::scene::load::PLASTIC_DEFAULT_IOR),
+            match &p.diffuse_reflectance {
+                Some(c) => files.color("diffuse_reflectance", c, INNER)?,
+                None => String::new(),
+            },
+            optional_rgb("specular_reflectance", p.specular_reflectance, INNER),
+            roughness_props(&p.roughness(), INNER, files).map_err(|e| e.context(format!("{file}: {field}")))?
+        )),
         MaterialDesc::Plastic(p) => twosided(plastic_xml(
             "plastic",
             (

@@ -4,7 +4,7 @@
 use super::textures::Textures;
 use super::*;
 use crate::bsdf::{
-    Bsdf, Coat, Coated, ColorParam, Conductor, ConductorIor, Dielectric, Microfacet, MicrofacetType, Plastic,
+    Bsdf, Coat, Coated, ColorParam, Conductor, ConductorIor, Dielectric, Microfacet, MicrofacetType, Plastic, Pplastic,
     RoughConductor, RoughDielectric, RoughPlastic, named_conductor_list,
 };
 use crate::error::Result;
@@ -199,6 +199,32 @@ pub(super) fn rough_plastic(ctx: &Ctx, field: &str, m: &desc::RoughPlastic, text
         interface_ior(ctx, &f("ior"), m.ior.unwrap_or(PLASTIC_DEFAULT_IOR))?,
         distribution,
         m.nonlinear.unwrap_or(false),
+    )))
+}
+
+/// Mitsuba's `pplastic`: its sampling weight from the diffuse reflectance's mean over the
+/// surface (a texture's mean texel), as Mitsuba's.
+pub(super) fn pplastic(ctx: &Ctx, field: &str, m: &desc::Pplastic, textures: &mut Textures) -> Result<Bsdf> {
+    let f = |key: &str| format!("{field}.{key}");
+    let distribution = microfacet(ctx, field, &m.roughness(), (textures, false))?;
+    let (diffuse, mean) = match &m.diffuse_reflectance {
+        Some(c) => {
+            let before = textures.params.len();
+            let hi = textures.unit_color(ctx, &f("diffuse_reflectance"), c, ColorParam::DiffuseReflectance)?;
+            let mean = match textures.params.get(before) {
+                Some((_, texture)) => texture.mean(),
+                None => hi,
+            };
+            (hi, mean)
+        }
+        None => (Vec3::splat(0.5), Vec3::splat(0.5)),
+    };
+    Ok(Bsdf::Pplastic(Pplastic::new(
+        diffuse,
+        unit_or_one(ctx, &f("specular_reflectance"), m.specular_reflectance)?,
+        interface_ior(ctx, &f("ior"), m.ior.unwrap_or(PLASTIC_DEFAULT_IOR))?,
+        distribution,
+        mean.element_sum() / 3.0,
     )))
 }
 

@@ -251,7 +251,7 @@ fn the_documented_example_loads() {
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 19);
+    assert_eq!(scene.materials.len(), 20);
     let tiles = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
     assert!(
         matches!(tiles.bsdf, crate::bsdf::Bsdf::NormalMapped(_)),

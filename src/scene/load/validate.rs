@@ -360,6 +360,7 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
         | MaterialDesc::RoughConductor(_)
         | MaterialDesc::RoughDielectric(_)
         | MaterialDesc::RoughPlastic(_)
+        | MaterialDesc::Pplastic(_)
         | MaterialDesc::Plastic(_) => {}
         MaterialDesc::OneSided(m) => {
             if matches!(
@@ -507,6 +508,7 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         MaterialDesc::RoughConductor(m) => rough::rough_conductor(ctx, field, m, textures)?,
         MaterialDesc::RoughDielectric(m) => rough::rough_dielectric(ctx, field, m, textures)?,
         MaterialDesc::RoughPlastic(m) => rough::rough_plastic(ctx, field, m, textures)?,
+        MaterialDesc::Pplastic(m) => rough::pplastic(ctx, field, m, textures)?,
         MaterialDesc::Plastic(m) => rough::plastic(ctx, field, m, textures)?,
         MaterialDesc::OneSided(m) => {
             Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?))

@@ -140,6 +140,22 @@ impl<'a, 'i> Reader<'a, 'i> {
                     masking: None,
                 })
             }
+            "pplastic" => {
+                let int_ior = self.ior(&mut o, "int_ior", 1.49)?;
+                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                let r = self.roughness(&mut o)?;
+                MaterialDesc::Pplastic(desc::Pplastic {
+                    diffuse_reflectance: self.texture_colour(&mut o, "diffuse_reflectance")?,
+                    specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
+                    ior: Some(int_ior / ext_ior),
+                    distribution: r.distribution,
+                    alpha: r.alpha,
+                    alpha_u: r.alpha_u,
+                    alpha_v: r.alpha_v,
+                    sample_visible: r.sample_visible,
+                    masking: None,
+                })
+            }
             "plastic" => {
                 let int_ior = self.ior(&mut o, "int_ior", 1.49)?;
                 let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
@@ -178,7 +194,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     n,
                     format!(
                         "unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, \
-                         roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, blendbsdf, normalmap, bumpmap)"
+                         roughdielectric, thindielectric, plastic, roughplastic, pplastic, twosided, mask, blendbsdf, normalmap, bumpmap)"
                     ),
                 ));
             }
