@@ -124,13 +124,12 @@ impl<'a, 'i> Reader<'a, 'i> {
                 })
             }
             "roughplastic" => {
-                let int_ior = self.ior(&mut o, "int_ior", 1.49)?;
-                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                let ior = self.plastic_ior(&mut o)?;
                 let r = self.roughness(&mut o)?;
                 MaterialDesc::RoughPlastic(desc::RoughPlastic {
                     diffuse_reflectance: self.texture_colour(&mut o, "diffuse_reflectance")?,
                     specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
-                    ior: Some(int_ior / ext_ior),
+                    ior: Some(ior),
                     nonlinear: self.boolean(&mut o, "nonlinear")?,
                     distribution: r.distribution,
                     alpha: r.alpha,
@@ -141,13 +140,12 @@ impl<'a, 'i> Reader<'a, 'i> {
                 })
             }
             "pplastic" => {
-                let int_ior = self.ior(&mut o, "int_ior", 1.49)?;
-                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                let ior = self.plastic_ior(&mut o)?;
                 let r = self.roughness(&mut o)?;
                 MaterialDesc::Pplastic(desc::Pplastic {
                     diffuse_reflectance: self.texture_colour(&mut o, "diffuse_reflectance")?,
                     specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
-                    ior: Some(int_ior / ext_ior),
+                    ior: Some(ior),
                     distribution: r.distribution,
                     alpha: r.alpha,
                     alpha_u: r.alpha_u,
@@ -157,12 +155,11 @@ impl<'a, 'i> Reader<'a, 'i> {
                 })
             }
             "plastic" => {
-                let int_ior = self.ior(&mut o, "int_ior", 1.49)?;
-                let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
+                let ior = self.plastic_ior(&mut o)?;
                 MaterialDesc::Plastic(desc::Plastic {
                     diffuse_reflectance: self.texture_colour(&mut o, "diffuse_reflectance")?,
                     specular_reflectance: self.colour(&mut o, "specular_reflectance")?,
-                    ior: Some(int_ior / ext_ior),
+                    ior: Some(ior),
                     nonlinear: self.boolean(&mut o, "nonlinear")?,
                 })
             }
@@ -369,6 +366,12 @@ impl<'a, 'i> Reader<'a, 'i> {
             k: self.unbounded_colour(o, "k")?,
             specular_reflectance: self.colour(o, "specular_reflectance")?,
         })
+    }
+
+    /// The relative index int_ior / ext_ior of the plastics' interface (defaults: polypropylene
+    /// in air, Mitsuba's).
+    fn plastic_ior(&mut self, o: &mut Obj<'a, 'i>) -> Result<f64> {
+        Ok(self.ior(o, "int_ior", 1.49)? / self.ior(o, "ext_ior", 1.000277)?)
     }
 
     /// A microfacet distribution's properties, left for the scene loader to check.
