@@ -56,17 +56,16 @@ pub struct NormalMapped {
     pub normal: Vec3,
 }
 
-/// One way of looking at a pair of directions: both as the map sees them (mirrored above the
-/// surface when the nested model is two-sided and the pair is below), the normal the nested
-/// model is evaluated around and its frame.
-struct View {
+/// How the map sees a pair of directions: mirrored above the surface (both z negated) when the
+/// nested model is two-sided and the pair is below ([`NormalMapped::above`]).
+#[derive(Clone, Copy)]
+struct Side {
     mirrored: bool,
-    frame: Frame,
 }
 
-impl View {
+impl Side {
     #[inline]
-    fn up(&self, w: Vec3) -> Vec3 {
+    fn up(self, w: Vec3) -> Vec3 {
         if self.mirrored { w.with_z(-w.z) } else { w }
     }
 }
@@ -80,6 +79,15 @@ impl NormalMapped {
         };
         b.set_colour(c);
         b
+    }
+
+    /// The model `nested` with the unmapped normal (a bump map's before its normal is set at a
+    /// hit).
+    pub fn flat(nested: Bsdf) -> Self {
+        Self {
+            nested,
+            normal: Vec3::Z,
+        }
     }
 
     /// Sets the map colour read at a hit; one that gives no direction (2c − 1 = 0) leaves the
@@ -112,15 +120,12 @@ impl NormalMapped {
         Frame::from_normal_tangent(n, Vec3::X)
     }
 
-    /// How a pair whose side is decided by `key` (the eye when evaluating, `wo` when
-    /// sampling) is looked at, with the frame around `normal(up(key))`.
+    /// The side a pair whose side is decided by `key` (the eye when evaluating, `wo` when
+    /// sampling) is seen from.
     #[inline]
-    fn view(&self, key: Vec3, normal: impl Fn(Vec3) -> Vec3) -> View {
-        let mirrored = key.z < 0.0 && self.mirrors_back();
-        let key_up = if mirrored { key.with_z(-key.z) } else { key };
-        View {
-            mirrored,
-            frame: Self::frame(normal(key_up)),
+    fn above(&self, key: Vec3) -> Side {
+        Side {
+            mirrored: key.z < 0.0 && self.mirrors_back(),
         }
     }
 
@@ -159,9 +164,10 @@ impl NormalMapped {
 
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         let (eye, _) = Self::eye_light(wo, wi, mode);
-        let view = self.view(eye, |eye| self.normal_seen_from(eye));
-        let (wo, wi) = (view.up(wo), view.up(wi));
-        let (wo_m, wi_m) = (view.frame.to_local(wo), view.frame.to_local(wi));
+        let side = self.above(eye);
+        let frame = Self::frame(self.normal_seen_from(side.up(eye)));
+        let (wo, wi) = (side.up(wo), side.up(wi));
+        let (wo_m, wi_m) = (frame.to_local(wo), frame.to_local(wi));
         let (_, light) = Self::eye_light(wo, wi, mode);
         let (_, light_m) = Self::eye_light(wo_m, wi_m, mode);
         let factor = self.light_factor(light, light_m);
@@ -185,8 +191,8 @@ impl NormalMapped {
     /// Density of [`NormalMapped::sample`]: the mixture over both frames of the nested model's
     /// density, each where both directions keep their side in that frame.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let view = self.view(wo, |w| w);
-        let (wo, wi) = (view.up(wo), view.up(wi));
+        let side = self.above(wo);
+        let (wo, wi) = (side.up(wo), side.up(wi));
         let mut pdf = 0.0;
         for (n, share) in self.sampling_frames(wo) {
             if share == 0.0 {
@@ -202,8 +208,8 @@ impl NormalMapped {
     }
 
     pub fn sample(&self, wo: Vec3, u: Vec2, u_lobe: f32, mode: TransportMode) -> Option<BsdfSample> {
-        let view = self.view(wo, |w| w);
-        let wo_up = view.up(wo);
+        let side = self.above(wo);
+        let wo_up = side.up(wo);
         let [(own, share), (other, rest)] = self.sampling_frames(wo_up);
         let (n, share, u_lobe) = if u_lobe < share {
             (own, share, u_lobe / share)
@@ -220,7 +226,7 @@ impl NormalMapped {
         if wi_up.z * s.wi.z <= 0.0 {
             return None;
         }
-        let wi = view.up(wi_up);
+        let wi = side.up(wi_up);
         if !s.delta {
             let pdf_w = self.pdf(wo, wi);
             return (pdf_w > 0.0).then(|| BsdfSample {
@@ -261,8 +267,8 @@ impl NormalMapped {
     /// [`Bsdf::delta_lobe`]: the nested model's delta lobes in either frame, where the eye sees
     /// that frame's normal.
     pub fn delta_lobe(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Option<(Vec3, f32)> {
-        let view = self.view(wo, |w| w);
-        let (wo, wi) = (view.up(wo), view.up(wi));
+        let side = self.above(wo);
+        let (wo, wi) = (side.up(wo), side.up(wi));
         self.sampling_frames(wo)
             .into_iter()
             .filter(|&(_, share)| share > 0.0)
@@ -279,8 +285,8 @@ impl NormalMapped {
 
     /// Probability that sampling from `wo` draws a delta lobe of the nested model.
     pub fn delta_probability(&self, wo: Vec3) -> f32 {
-        let view = self.view(wo, |w| w);
-        let wo = view.up(wo);
+        let side = self.above(wo);
+        let wo = side.up(wo);
         self.sampling_frames(wo)
             .into_iter()
             .map(|(n, share)| {

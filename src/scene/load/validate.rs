@@ -524,7 +524,7 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         // `materials` takes the height off; the normal is set at every hit (`Scene::bsdf_of`).
         MaterialDesc::BumpMap(m) => {
             let nested = make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?;
-            Bsdf::NormalMapped(Box::new(NormalMapped::new(nested, Vec3::new(0.5, 0.5, 1.0))))
+            Bsdf::NormalMapped(Box::new(NormalMapped::flat(nested)))
         }
         MaterialDesc::Blend(m) => blend(ctx, field, m, textures)?,
         MaterialDesc::Coated(m) => rough::coated(ctx, field, m, textures, |textures| {

@@ -5,6 +5,10 @@ use crate::error::Result;
 use crate::scene::desc::{self, Color, Fixed, MaterialDesc, Roughness};
 use roxmltree::Node;
 
+/// What a normal or bump map cannot wrap: a mask (it goes around the map) or another map.
+const SURFACE_WRAPPERS: &[&str] = &["mask", "normalmap", "bumpmap"];
+const SURFACE_WRAPPERS_HINT: &str = " (a mask goes outside)";
+
 impl<'a, 'i> Reader<'a, 'i> {
     /// A BSDF element as one of our materials.
     pub(super) fn bsdf(&mut self, n: Node<'a, 'i>) -> Result<MaterialDesc> {
@@ -245,6 +249,26 @@ impl<'a, 'i> Reader<'a, 'i> {
         Ok(o.children.clone())
     }
 
+    /// The one nested `<bsdf>` of a wrapper BSDF (`kind`), once its properties are taken; a
+    /// nested BSDF of a type in `refused` is an error (`hint` says where it goes instead).
+    fn one_nested_bsdf(
+        &self,
+        n: Node<'a, 'i>,
+        o: &Obj<'a, 'i>,
+        kind: &str,
+        (refused, hint): (&[&str], &str),
+    ) -> Result<Node<'a, 'i>> {
+        let inner = self.nested_bsdfs(o, kind)?;
+        let [inner] = inner[..] else {
+            return Err(self.err(n, format!("expected exactly one nested <bsdf> in a {kind}")));
+        };
+        let inner_kind = self.required(inner, "type")?;
+        if refused.contains(&inner_kind.as_str()) {
+            return Err(self.err(inner, format!("a {inner_kind} inside a {kind} is not supported{hint}")));
+        }
+        Ok(inner)
+    }
+
     /// A `mask`: its `opacity` (a number, a colour's luminance or a texture's, default 0.5) and
     /// its one nested BSDF, read by `nested` (sidedness as Mitsuba's, or two-sided).
     fn mask(
@@ -254,13 +278,7 @@ impl<'a, 'i> Reader<'a, 'i> {
     ) -> Result<MaterialDesc> {
         let mut o = self.obj(n)?;
         let opacity = self.scalar_texture(&mut o, "opacity")?;
-        let inner = self.nested_bsdfs(&o, "mask")?;
-        let [inner] = inner[..] else {
-            return Err(self.err(n, "expected exactly one nested <bsdf> in a mask"));
-        };
-        if self.required(inner, "type")? == "mask" {
-            return Err(self.err(inner, "a mask inside a mask is not supported"));
-        }
+        let inner = self.one_nested_bsdf(n, &o, "mask", (&["mask"], ""))?;
         Ok(MaterialDesc::Mask(desc::Mask {
             opacity,
             bsdf: Box::new(nested(self, inner)?),
@@ -278,22 +296,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         let Some(normals) = self.texture_colour(&mut o, "normalmap")? else {
             return Err(self.err(n, "expected a <texture name=\"normalmap\">"));
         };
-        let inner = self.nested_bsdfs(&o, "normalmap")?;
-        let [inner] = inner[..] else {
-            return Err(self.err(n, "expected exactly one nested <bsdf> in a normalmap"));
-        };
-        match self.required(inner, "type")?.as_str() {
-            "mask" => {
-                return Err(self.err(
-                    inner,
-                    "a mask inside a normalmap is not supported (put the mask outside)",
-                ));
-            }
-            "normalmap" | "bumpmap" => {
-                return Err(self.err(inner, "a normalmap or bumpmap inside a normalmap is not supported"));
-            }
-            _ => {}
-        }
+        let inner = self.one_nested_bsdf(n, &o, "normalmap", (SURFACE_WRAPPERS, SURFACE_WRAPPERS_HINT))?;
         Ok(MaterialDesc::NormalMap(desc::NormalMap {
             normals,
             bsdf: Box::new(nested(self, inner)?),
@@ -324,16 +327,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             None => desc::ScalarDesc::Texture(Box::new(self.texture(texture)?)),
         };
         o.children.retain(|c| *c != texture);
-        let inner = self.nested_bsdfs(&o, "bumpmap")?;
-        let [inner] = inner[..] else {
-            return Err(self.err(n, "expected exactly one nested <bsdf> in a bumpmap"));
-        };
-        if let kind @ ("mask" | "normalmap" | "bumpmap") = self.required(inner, "type")?.as_str() {
-            return Err(self.err(
-                inner,
-                format!("a {kind} inside a bumpmap is not supported (a mask goes outside)"),
-            ));
-        }
+        let inner = self.one_nested_bsdf(n, &o, "bumpmap", (SURFACE_WRAPPERS, SURFACE_WRAPPERS_HINT))?;
         Ok(MaterialDesc::BumpMap(desc::BumpMap {
             height,
             scale,
