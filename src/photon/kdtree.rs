@@ -3,10 +3,10 @@
 //!
 //! Layout: a complete binary tree of median splits whose leaves are buckets of at most
 //! [`LEAF_SIZE`] items ([`NEAREST_LEAF_SIZE`] for trees built for nearest-item lookups). The
-//! items are reordered so that every leaf is a contiguous range; the range of a node is found
-//! while descending (the root holds `0..n`, a node's range `lo..hi` splits at
-//! `mid = lo + (hi − lo) / 2`), and all leaves lie at the same depth, so the inner nodes need
-//! no pointers: node k's children are 2k + 1 and 2k + 2, and each stores only
+//! items are reordered so that every leaf is a contiguous range (the root holds `0..n`, a
+//! node's range `lo..hi` splits at `mid = lo + (hi − lo) / 2`; each leaf's start is kept in a
+//! table, so that descents carry no ranges), and all leaves lie at the same depth, so the inner
+//! nodes need no pointers: node k's children are 2k + 1 and 2k + 2, and each stores only
 //! its split plane (a coordinate and an axis). Items left of `mid` have a coordinate ≤ the
 //! split, items right of it ≥. The positions are also kept apart in [`Lanes3`] blocks, each
 //! leaf's in blocks of its own (padded with infinities: leaf `l` owns blocks
@@ -156,6 +156,10 @@ pub struct KdTree<T> {
     /// extents over their count; ∞, i.e. no guess, where that is 0): the k-nearest search's
     /// first guess of its radius.
     leaf_area: Vec<f32>,
+    /// Where each leaf's items start, and the item count last: leaf `l` holds
+    /// `leaf_start[l]..leaf_start[l + 1]`. The search reads a leaf's range here instead of
+    /// carrying ranges down every descent.
+    leaf_start: Vec<u32>,
     /// Split plane of each inner node (heap order): its coordinate as an [`order_key`] and its
     /// axis (0, 1, 2). Every leaf lies below the last of them, at the same depth.
     planes: Vec<(u32, u32)>,
@@ -195,7 +199,11 @@ impl<T: KdPoint + Send> KdTree<T> {
         let inner = (1usize << depth) - 1;
         let mut node_planes = vec![(0u32, 0u32); inner];
         let mut leaf_area = vec![f32::INFINITY; inner + 1];
+        let mut leaf_start = vec![items.len() as u32; inner + 2];
         for_each_node(inner, items.len() as u32, |node, lo, hi| {
+            if node >= inner {
+                leaf_start[node - inner] = lo;
+            }
             if node < inner {
                 let mid = (lo + (hi - lo) / 2) as usize;
                 node_planes[node] = (order_key(planes[mid].0), planes[mid].1 as u32);
@@ -218,6 +226,7 @@ impl<T: KdPoint + Send> KdTree<T> {
             blocks: Vec::new(),
             blocks_per_leaf: leaf.div_ceil(LANES) as u32,
             leaf_area,
+            leaf_start,
             planes: node_planes,
         };
         tree.blocks = tree.lanes_of(KdPoint::position, f32::INFINITY);
@@ -347,7 +356,7 @@ impl<T: KdPoint> KdTree<T> {
 
     /// Heap bytes used by the tree beyond the items themselves.
     pub fn overhead_bytes(&self) -> usize {
-        self.blocks.len() * size_of::<Lanes3>() + self.planes.len() * 8
+        self.blocks.len() * size_of::<Lanes3>() + self.planes.len() * 8 + self.leaf_start.len() * 4
     }
 
     /// A vector per item (`value`) laid out as the tree lays out positions: the blocks of
@@ -407,37 +416,38 @@ impl<T: KdPoint> KdTree<T> {
         let inner = self.planes.len();
         let q = p.to_array();
         let kq = q.map(order_key);
-        let mut stack = [(0u32, 0u32, 0u32, 0f32); STACK];
-        stack[0] = (0, 0, self.items.len() as u32, 0.0);
+        // (node, squared distance to its slab); the root first.
+        let mut stack = [(0u32, 0f32); STACK];
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let (mut node, mut lo, mut hi, plane2) = stack[top];
+            let (mut node, plane2) = stack[top];
             if plane2 > bound2 {
                 continue;
             }
             while (node as usize) < inner {
                 // Branch-free descent (the side taken is unpredictable): the near child is
                 // the right one when the query is on the split's upper side; the far one is
-                // kept when its slab is within the bound.
-                let mid = lo + (hi - lo) / 2;
+                // kept when its slab is within the bound. No item range is carried down: the
+                // leaf's comes from `leaf_start` (8 fewer instructions a level, 8-byte stack
+                // entries).
+                let (key, axis) = self.planes[node as usize];
                 // The side is decided on integer keys picked by conditional moves: the chain
                 // from one level's load to the next is then load, two moves, a compare (1.45×
                 // faster nearest lookups than indexing the query by the axis and subtracting
                 // floats on that chain). The float distance to the plane is off the chain.
-                let (key, axis) = self.planes[node as usize];
                 let qa = if axis == 0 { kq[0] } else { kq[1] };
                 let qa = if axis == 2 { kq[2] } else { qa };
                 let right = qa >= key;
                 let delta = q[axis as usize] - from_order_key(key);
-                let (near_lo, near_hi) = if right { (mid, hi) } else { (lo, mid) };
-                let (far_lo, far_hi) = if right { (lo, mid) } else { (mid, hi) };
                 let far2 = delta * delta;
-                stack[top] = (2 * node + 2 - right as u32, far_lo, far_hi, far2);
+                stack[top] = (2 * node + 2 - right as u32, far2);
                 top += (far2 <= bound2) as usize;
-                (node, lo, hi) = (2 * node + 1 + right as u32, near_lo, near_hi);
+                node = 2 * node + 1 + right as u32;
             }
-            let first = (node as usize - inner) * self.blocks_per_leaf as usize;
+            let l = node as usize - inner;
+            let (lo, hi) = (self.leaf_start[l], self.leaf_start[l + 1]);
+            let first = l * self.blocks_per_leaf as usize;
             for (b, start) in (lo..hi).step_by(LANES).enumerate() {
                 bound2 = leaf(first + b, start, (hi - start).min(LANES as u32), bound2);
             }
