@@ -75,6 +75,7 @@ use crate::geometry::{Frame, spawn_ray, spawn_shadow_ray};
 use crate::light::delta::DeltaLight;
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfaceHit};
+use crate::texture::TexPoint;
 use glam::{Vec2, Vec3};
 use std::borrow::Cow;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -113,8 +114,8 @@ pub struct Vertex {
     /// Primitive the vertex lies on (`u32::MAX` for the eye).
     pub prim: u32,
     pub material: u32,
-    /// Texture coordinates (surface vertices of textured materials; zero otherwise).
-    pub uv: Vec2,
+    /// Where its textures are read (surface vertices of textured materials; zero otherwise).
+    pub tex: TexPoint,
     pub kind: VertexKind,
     /// The path scatters here through a delta lobe: a "specular" vertex, S in Heckbert's
     /// grammar. Fixed by the material for models with only delta lobes (mirror, smooth
@@ -151,7 +152,7 @@ impl Vertex {
             frame: hit.frame,
             prim: hit.prim,
             material: hit.material,
-            uv: scene.texture_uv(hit),
+            tex: scene.texture_point(hit),
             kind: VertexKind::Surface,
             delta: bsdf.is_delta(),
             mixed: bsdf.mixes_delta(),
@@ -168,7 +169,7 @@ impl Vertex {
             frame: Frame::from_normal(n),
             prim,
             material: scene.attrs[prim as usize].material,
-            uv: Vec2::ZERO,
+            tex: TexPoint::default(),
             kind: VertexKind::Light(light as u32),
             delta: false,
             mixed: false,
@@ -189,7 +190,7 @@ impl Vertex {
                 frame: Frame::from_normal(Vec3::Z),
                 prim: u32::MAX,
                 material: u32::MAX,
-                uv: Vec2::ZERO,
+                tex: TexPoint::default(),
                 kind: VertexKind::DeltaLight(j as u32),
                 delta: false,
                 mixed: false,
@@ -213,7 +214,7 @@ impl Vertex {
             frame: Frame::from_normal(travel),
             prim: u32::MAX,
             material: u32::MAX,
-            uv: Vec2::ZERO,
+            tex: TexPoint::default(),
             kind,
             delta: false,
             mixed: false,
@@ -242,7 +243,7 @@ impl Vertex {
             frame: Frame::from_normal(forward),
             prim: u32::MAX,
             material: u32::MAX,
-            uv: Vec2::ZERO,
+            tex: TexPoint::default(),
             kind: VertexKind::Eye,
             delta: false,
             mixed: false,
@@ -326,13 +327,13 @@ impl Vertex {
             frame: &self.frame,
             prim: self.prim,
         };
-        scene.bsdf_of(self.material, at, || self.uv)
+        scene.bsdf_of(self.material, at, || self.tex)
     }
 
     /// The opacity α of a surface vertex's material there ([`crate::scene::Material::opacity`]).
     #[inline]
     pub fn opacity(&self, scene: &Scene) -> f32 {
-        scene.materials[self.material as usize].opacity_at(|| self.uv)
+        scene.materials[self.material as usize].opacity_at(|| self.tex.uv)
     }
 }
 

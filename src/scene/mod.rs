@@ -29,7 +29,7 @@ use crate::light::delta::DeltaLight;
 use crate::light::environment::Environment;
 use crate::light::{AreaLight, Emission};
 use crate::sampling::Distribution1D;
-use crate::texture::{Scalar, Texture};
+use crate::texture::{Scalar, TexPoint, Texture};
 use glam::{Mat3, Vec2, Vec3};
 use light_selection::Emitter;
 use std::borrow::Cow;
@@ -75,17 +75,17 @@ impl Material {
     /// The model at surface coordinates `uv` (computed only for a textured material): borrowed
     /// when nothing is textured, the model with its textures evaluated otherwise.
     #[inline]
-    pub fn bsdf_at(&self, uv: impl FnOnce() -> Vec2) -> Cow<'_, Bsdf> {
+    pub fn bsdf_at(&self, at: impl FnOnce() -> TexPoint) -> Cow<'_, Bsdf> {
         if self.textures.is_empty() {
             return Cow::Borrowed(&self.bsdf);
         }
-        let uv = uv();
+        let at = at();
         let mut bsdf = self.bsdf.clone();
         for (param, texture) in &self.textures {
             let value = if param.is_number() {
-                Vec3::splat(texture.eval_number(uv))
+                Vec3::splat(texture.eval_number_at(&at))
             } else {
-                texture.eval(uv)
+                texture.eval_at(&at)
             };
             bsdf.set_color(*param, value);
         }
@@ -512,21 +512,21 @@ impl Scene {
             frame: &hit.frame,
             prim: hit.prim,
         };
-        self.bsdf_of(hit.material, at, || self.uv(hit))
+        self.bsdf_of(hit.material, at, || self.tex_point(hit))
     }
 
     /// The model of `material` at a point of a surface, with texture coordinates `uv`: its
     /// textures evaluated there and, under a bump map, the normal of the displaced surface.
     #[inline]
-    pub fn bsdf_of(&self, material: u32, at: SurfacePoint, uv: impl FnOnce() -> Vec2) -> Cow<'_, Bsdf> {
+    pub fn bsdf_of(&self, material: u32, at: SurfacePoint, tex: impl FnOnce() -> TexPoint) -> Cow<'_, Bsdf> {
         let material = &self.materials[material as usize];
         let Some(bump) = &material.bump else {
-            return material.bsdf_at(uv);
+            return material.bsdf_at(tex);
         };
-        let uv = uv();
-        let mut bsdf = material.bsdf_at(|| uv).into_owned();
+        let tex = tex();
+        let mut bsdf = material.bsdf_at(|| tex).into_owned();
         if let Bsdf::NormalMapped(b) = &mut bsdf {
-            b.normal = self.bumped_normal(bump, &at, uv);
+            b.normal = self.bumped_normal(bump, &at, tex.uv);
         }
         Cow::Owned(bsdf)
     }
@@ -560,14 +560,24 @@ impl Scene {
         }
     }
 
-    /// Texture coordinates of a hit when its material has textures, zero otherwise (what a
-    /// path vertex keeps to evaluate its model later).
+    /// Where a hit's textures are read when its material has textures, zero otherwise (what
+    /// a path vertex keeps to evaluate its model later).
     #[inline]
-    pub fn texture_uv(&self, hit: &SurfaceHit) -> Vec2 {
+    pub fn texture_point(&self, hit: &SurfaceHit) -> TexPoint {
         if !self.materials[hit.material as usize].is_textured() {
-            Vec2::ZERO
+            TexPoint::default()
         } else {
-            self.uv(hit)
+            self.tex_point(hit)
+        }
+    }
+
+    /// Where a hit's textures are read: its (u, v), primitive and barycentrics.
+    #[inline]
+    pub fn tex_point(&self, hit: &SurfaceHit) -> TexPoint {
+        TexPoint {
+            uv: self.uv(hit),
+            prim: hit.prim,
+            bary: hit.bary,
         }
     }
 

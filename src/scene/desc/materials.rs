@@ -130,12 +130,27 @@ impl From<Triple> for Color {
     }
 }
 
-/// A texture (Mitsuba 3's `checkerboard` and `bitmap`); `type` selects the variant.
+/// A texture (Mitsuba 3's `checkerboard`, `bitmap` and `mesh_attribute`); `type` selects the
+/// variant.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum TextureDesc {
     Checkerboard(CheckerboardDesc),
     Bitmap(BitmapDesc),
+    MeshAttribute(MeshAttributeDesc),
+}
+
+/// A value the mesh carries (Mitsuba 3's `mesh_attribute`): `vertex_NAME` interpolated over
+/// each triangle or `face_NAME` constant over it, from a PLY file's properties (`r`, `g`, `b`
+/// or `NAME_0`, `NAME_1`, … of its `vertex` or `face` element) or a `.serialized` file's
+/// vertex colours. Drives colour parameters only; every shape of the material must carry it.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshAttributeDesc {
+    /// `vertex_…` or `face_…`.
+    pub name: String,
+    /// Multiplies the value (default 1).
+    pub scale: Option<f64>,
 }
 
 /// Two colours in a checker pattern with cells ½ × ½ in (u, v) (after `to_uv`).

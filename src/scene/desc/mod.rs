@@ -38,6 +38,8 @@
 //!                 to_uv = { scale = [8, 8] } }   # diffuse_reflectance); or:
 //! # reflectance = { type = "bitmap", file = "textures/wood.png", filter = "bilinear",
 //! #                 wrap = "repeat", raw = false, to_uv = { matrix = [[1, 0, 0], [0, 1, 0]] } }
+//! # reflectance = { type = "mesh_attribute", name = "vertex_color", scale = 1 }  # a PLY mesh's
+//! #                 vertex_NAME / face_NAME values (Mitsuba's mesh_attribute; colours only)
 //! [materials.chrome]
 //! type = "mirror"                   # ideal specular reflection
 //! reflectance = [1, 1, 1]           # optional, default [1, 1, 1]; in [0, 1]

@@ -552,6 +552,13 @@ impl Files<'_> {
                 }
                 ("bitmap", props, b.to_uv.as_ref())
             }
+            TextureDesc::MeshAttribute(m) => {
+                let mut props = format!("{inner}<string name=\"name\" value=\"{}\"/>\n", escape(&m.name));
+                if let Some(s) = m.scale {
+                    let _ = writeln!(props, "{inner}<float name=\"scale\" value=\"{}\"/>", nums(&[s]));
+                }
+                ("mesh_attribute", props, None)
+            }
         };
         if let Some(t) = to_uv {
             // As a 4 × 4 matrix: the 2 × 2 block upper left, the offset in the last column.

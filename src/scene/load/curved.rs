@@ -122,7 +122,7 @@ impl Builder<'_> {
         let (mut added, mut skipped) = (0usize, 0usize);
         for t in triangles {
             match self.triangle(xf, t.map(|v| v.p), Some(t.map(|v| v.n)), Some(t.map(|v| v.uv)), attrs) {
-                Ok(()) => added += 1,
+                Ok(_) => added += 1,
                 Err(TriangleError::Degenerate) => skipped += 1,
                 Err(TriangleError::OutOfRange(msg)) => return Err(self.ctx.err(field, msg)),
             }

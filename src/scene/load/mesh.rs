@@ -24,6 +24,20 @@ pub(super) struct Builder<'a> {
     /// The scene file's bytes, then every mesh and MTL file's bytes in reading order.
     pub(super) hashed: Vec<Vec<u8>>,
     pub(super) stats: LoadStats,
+    /// Mesh attributes by name: the channels and, per primitive that has the attribute, its
+    /// three corners' values in the primitive's vertex order (a face attribute's value three
+    /// times), for `mesh_attribute` textures.
+    pub(super) mesh_attributes: BTreeMap<String, PrimValues>,
+    /// The first primitive of each shape and the shape's label, for messages.
+    pub(super) shape_starts: Vec<(usize, String)>,
+}
+
+/// One mesh attribute over the scene's primitives ([`Builder::mesh_attributes`]).
+#[derive(Debug, Default)]
+pub(super) struct PrimValues {
+    pub(super) channels: usize,
+    pub(super) per_face: bool,
+    pub(super) corners: Vec<(u32, [[f32; 4]; 3])>,
 }
 
 /// Why a triangle could not be added.
@@ -252,7 +266,7 @@ impl Builder<'_> {
     ) -> Result<()> {
         for (tri, uv) in [([a, b, c], [ta, tb, tc]), ([a, c, d], [ta, tc, td])] {
             match self.triangle(xf, tri, None, Some(uv), attrs) {
-                Ok(()) => {}
+                Ok(_) => {}
                 Err(TriangleError::OutOfRange(msg)) => return Err(self.ctx.err(field, msg)),
                 Err(TriangleError::Degenerate) => {
                     return Err(self.ctx.err(
@@ -267,7 +281,8 @@ impl Builder<'_> {
     }
 
     /// Transforms and adds one triangle, given CCW about its intended front side, with its
-    /// vertices' shading normals and texture coordinates if any.
+    /// vertices' shading normals and texture coordinates if any; true when it was turned around
+    /// (its vertices 1 and 2 swapped).
     pub(super) fn triangle(
         &mut self,
         xf: &Xform,
@@ -275,7 +290,7 @@ impl Builder<'_> {
         normals: Option<[DVec3; 3]>,
         uvs: Option<[DVec2; 3]>,
         attrs: PrimAttrs,
-    ) -> std::result::Result<(), TriangleError> {
+    ) -> std::result::Result<bool, TriangleError> {
         let mut w = v.map(|p| xf.point(p));
         for p in w {
             if !p.to_array().iter().all(|&c| is_coord(c)) {
@@ -322,7 +337,7 @@ impl Builder<'_> {
             uv,
             ..attrs
         });
-        Ok(())
+        Ok(turn)
     }
 
     /// A mesh file: OBJ (through tobj), PLY or Mitsuba `.serialized`, chosen by the extension.
@@ -439,6 +454,7 @@ impl Builder<'_> {
                 .chunks(3)
                 .map(|c| [c[0] as usize, c[1] as usize, c[2] as usize])
                 .collect(),
+            attributes: Vec::new(),
         };
         let normals = MeshNormals {
             face: false,
@@ -495,11 +511,14 @@ impl Builder<'_> {
                 None
             };
             let uvs = mesh.uvs.as_ref().filter(|t| t.len() == mesh.positions.len());
-            for tri in &mesh.triangles {
+            for (face, tri) in mesh.triangles.iter().enumerate() {
                 let ns = normals.as_ref().map(|n| tri.map(|i| n[i]));
                 let ts = uvs.map(|t| tri.map(|i| t[i]));
                 match self.triangle(xf, tri.map(|i| mesh.positions[i]), ns, ts, attrs) {
-                    Ok(()) => added += 1,
+                    Ok(turned) => {
+                        added += 1;
+                        self.add_attributes(mesh, face, *tri, turned);
+                    }
                     Err(TriangleError::Degenerate) => skipped += 1,
                     Err(TriangleError::OutOfRange(msg)) => {
                         return Err(ctx.err(field, format!("{shown}: {msg}")));
@@ -517,6 +536,32 @@ impl Builder<'_> {
         }
         self.stats.degenerate_triangles_skipped += skipped;
         Ok(())
+    }
+
+    /// Records the attributes of `mesh` at its triangle `face` (vertices `tri`), the primitive
+    /// just added (`turned`: with its vertices 1 and 2 swapped).
+    fn add_attributes(&mut self, mesh: &TriMesh, face: usize, tri: [usize; 3], turned: bool) {
+        let prim = (self.primitives.len() - 1) as u32;
+        for a in &mesh.attributes {
+            let value = |k: usize| -> [f32; 4] {
+                let mut v = [0.0; 4];
+                let n = a.channels.min(4);
+                v[..n].copy_from_slice(&a.values[k * a.channels..k * a.channels + n]);
+                v
+            };
+            let mut corners = if a.per_face { [value(face); 3] } else { tri.map(value) };
+            if turned {
+                corners.swap(1, 2);
+            }
+            let entry = self.mesh_attributes.entry(a.name.clone()).or_default();
+            if entry.corners.is_empty() {
+                (entry.channels, entry.per_face) = (a.channels, a.per_face);
+            } else if entry.channels != a.channels {
+                // Meshes disagree on its channels: a texture reading it is refused.
+                entry.channels = usize::MAX;
+            }
+            entry.corners.push((prim, corners));
+        }
     }
 
     /// The objects of an OBJ file (tobj, triangulated, one index per vertex). MTL libraries are
@@ -586,6 +631,7 @@ impl Builder<'_> {
                 uvs,
                 positions,
                 triangles,
+                attributes: Vec::new(),
             });
         }
         Ok(meshes)

@@ -18,6 +18,58 @@ pub(super) struct TriMesh {
     pub(super) normals: Option<Vec<DVec3>>,
     pub(super) uvs: Option<Vec<DVec2>>,
     pub(super) triangles: Vec<[usize; 3]>,
+    /// Mitsuba's mesh attributes (`vertex_color`, `face_color`, …), what a `mesh_attribute`
+    /// texture reads.
+    pub(super) attributes: Vec<MeshAttr>,
+}
+
+/// One mesh attribute as Mitsuba 3.9.1's PLY reader names it: the properties `NAME_0`,
+/// `NAME_1`, … of element `vertex` (or `face`) become attribute `vertex_NAME` (`face_NAME`)
+/// with one channel each; `r`, `g`, `b` (or `red`, `green`, `blue`), with `a` (`alpha`) if
+/// present, become `vertex_color` (`face_color`) unless `NAME_k` properties already gave it.
+/// Values are taken as they are (Mitsuba warns about 8-bit colours but does not divide them by
+/// 255). Other properties are ignored, as Mitsuba ignores them.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct MeshAttr {
+    pub(super) name: String,
+    pub(super) channels: usize,
+    /// Per vertex; a face attribute per triangle (a polygon's value repeated for each of the
+    /// triangles fanned from it).
+    pub(super) per_face: bool,
+    /// `channels` values per vertex or triangle.
+    pub(super) values: Vec<f32>,
+}
+
+/// The attributes of one PLY element (`vertex` or `face`: `prefix`), each as a list of
+/// property names, in Mitsuba's naming (see [`MeshAttr`]).
+fn ply_attribute_groups(properties: &[String], prefix: &str) -> Vec<(String, Vec<String>)> {
+    let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+    for name in properties {
+        let Some((base, k)) = name.rsplit_once('_') else {
+            continue;
+        };
+        let Ok(k) = k.parse::<usize>() else {
+            continue;
+        };
+        let attribute = format!("{prefix}_{base}");
+        match groups.iter_mut().find(|(a, _)| *a == attribute) {
+            Some((_, props)) if props.len() == k => props.push(name.clone()),
+            Some(_) => {}
+            None if k == 0 => groups.push((attribute, vec![name.clone()])),
+            None => {}
+        }
+    }
+    let color = format!("{prefix}_color");
+    if !groups.iter().any(|(a, _)| *a == color) {
+        for names in [["r", "g", "b", "a"], ["red", "green", "blue", "alpha"]] {
+            if names[..3].iter().all(|n| properties.iter().any(|p| p == n)) {
+                let n = if properties.iter().any(|p| p == names[3]) { 4 } else { 3 };
+                groups.push((color, names[..n].iter().map(|s| s.to_string()).collect()));
+                break;
+            }
+        }
+    }
+    groups
 }
 
 /// A Stanford PLY file: element `vertex` with `x`, `y`, `z` (and `nx`, `ny`, `nz` if all three
@@ -56,6 +108,31 @@ pub(super) fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
                 .collect::<Option<Vec<_>>>()
                 .filter(|uv| !uv.is_empty())
         });
+    let property_names = |element: &str| -> Vec<String> {
+        ply.header
+            .elements
+            .get(element)
+            .map_or_else(Vec::new, |e| e.properties.keys().cloned().collect())
+    };
+    let vertex_groups = ply_attribute_groups(&property_names("vertex"), "vertex");
+    let face_groups = ply_attribute_groups(&property_names("face"), "face");
+    let mut attributes = Vec::new();
+    for (name, props) in &vertex_groups {
+        let mut values = Vec::with_capacity(props.len() * vertices.len());
+        for (i, v) in vertices.iter().enumerate() {
+            for p in props {
+                let x = v.get(p).and_then(Property::to_f32_lossy);
+                values.push(x.ok_or_else(|| format!("vertex {i} lacks a number `{p}` (attribute {name})"))?);
+            }
+        }
+        attributes.push(MeshAttr {
+            name: name.clone(),
+            channels: props.len(),
+            per_face: false,
+            values,
+        });
+    }
+    let mut face_values: Vec<Vec<f32>> = vec![Vec::new(); face_groups.len()];
     let mut triangles = Vec::with_capacity(faces.len());
     for (i, f) in faces.iter().enumerate() {
         let list = f.get("vertex_indices").or_else(|| f.get("vertex_index"));
@@ -80,6 +157,24 @@ pub(super) fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
         for k in 1..corners.len() - 1 {
             triangles.push([index(corners[0])?, index(corners[k])?, index(corners[k + 1])?]);
         }
+        for ((name, props), values) in face_groups.iter().zip(&mut face_values) {
+            let face: Vec<f32> = props
+                .iter()
+                .map(|p| f.get(p).and_then(Property::to_f32_lossy))
+                .collect::<Option<_>>()
+                .ok_or_else(|| format!("face {i} lacks a number for attribute {name}"))?;
+            for _ in 1..corners.len() - 1 {
+                values.extend_from_slice(&face);
+            }
+        }
+    }
+    for ((name, props), values) in face_groups.into_iter().zip(face_values) {
+        attributes.push(MeshAttr {
+            name,
+            channels: props.len(),
+            per_face: true,
+            values,
+        });
     }
     Ok(TriMesh {
         name: String::new(),
@@ -87,6 +182,7 @@ pub(super) fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
         normals,
         uvs,
         triangles,
+        attributes,
     })
 }
 
@@ -187,8 +283,15 @@ pub(super) fn parse_serialized(bytes: &[u8], shape_index: u32) -> Result<(TriMes
     } else {
         None
     };
+    // Mitsuba reads a .serialized file's vertex colours as the attribute `vertex_color`.
+    let mut attributes = Vec::new();
     if flags & HAS_COLORS != 0 {
-        reals(vertices * 3)?;
+        attributes.push(MeshAttr {
+            name: "vertex_color".to_string(),
+            channels: 3,
+            per_face: false,
+            values: reals(vertices * 3)?.into_iter().map(|x| x as f32).collect(),
+        });
     }
     let wide = vertices > u32::MAX as usize;
     let index_bytes = triangles.checked_mul(3 * if wide { 8 } else { 4 }).ok_or("overflow")?;
@@ -217,6 +320,7 @@ pub(super) fn parse_serialized(bytes: &[u8], shape_index: u32) -> Result<(TriMes
             normals,
             uvs,
             triangles: tris,
+            attributes,
         },
         flags & FACE_NORMALS != 0,
     ))
@@ -397,6 +501,58 @@ property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_he
         let out_of_range = String::from_utf8_lossy(ascii).replace("4 0 1 2 3", "3 0 1 9");
         assert!(parse_ply(out_of_range.as_bytes()).unwrap_err().contains("vertex 9"));
         assert!(parse_ply(b"ply\nformat ascii 1.0\nend").is_err());
+    }
+
+    /// Mitsuba 3.9.1's names and values (probed with its PLY reader): `r g b` (8-bit values
+    /// kept as they are) or `red green blue alpha` become `vertex_color`; `NAME_0 NAME_1 …`
+    /// become `vertex_NAME` (and win over `r g b`); a face's values repeat for each triangle
+    /// fanned from it; a property without a numbered postfix is not an attribute. (Our rule
+    /// where Mitsuba's was not probed: a numbered property after a gap in the numbering is
+    /// ignored.)
+    #[test]
+    fn ply_attributes_are_named_and_valued_as_mitsuba_reads_them() {
+        let ply = |vertex_props: &str, vertex_values: &str, face_props: &str, face_values: &str| {
+            let props = |names: &str, ty: &str| -> String {
+                names
+                    .split_whitespace()
+                    .map(|n| format!("property {ty} {n}\n"))
+                    .collect()
+            };
+            format!(
+                "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n{}\
+                 element face 1\nproperty list uchar int vertex_indices\n{}end_header\n\
+                 0 0 0 {vertex_values}\n1 0 0 {vertex_values}\n1 1 0 {vertex_values}\n0 1 0 {vertex_values}\n\
+                 4 0 1 2 3 {face_values}\n",
+                props(vertex_props, "uchar"),
+                props(face_props, "float"),
+            )
+        };
+        let attrs = |text: String| parse_ply(text.as_bytes()).unwrap().attributes;
+        let a = attrs(ply("r g b", "255 128 0", "", ""));
+        assert_eq!(a.len(), 1);
+        assert_eq!(
+            (a[0].name.as_str(), a[0].channels, a[0].per_face),
+            ("vertex_color", 3, false)
+        );
+        assert_eq!(&a[0].values[..3], &[255.0, 128.0, 0.0]);
+        let a = attrs(ply("red green blue alpha", "1 2 3 4", "", ""));
+        assert_eq!((a[0].name.as_str(), a[0].channels), ("vertex_color", 4));
+        let a = attrs(ply(
+            "r g b color_0 color_1 color_2 w_0 foo gap_0 gap_2",
+            "1 2 3 4 5 6 7 8 9 10",
+            "",
+            "",
+        ));
+        let names: Vec<(&str, usize)> = a.iter().map(|a| (a.name.as_str(), a.channels)).collect();
+        assert_eq!(names, [("vertex_color", 3), ("vertex_w", 1), ("vertex_gap", 1)]);
+        assert_eq!(&a[0].values[..3], &[4.0, 5.0, 6.0]);
+        // A quad: two triangles, each with the face's values.
+        let a = attrs(ply("", "", "color_0 color_1 color_2", "0.1 0.2 0.3"));
+        assert_eq!(
+            (a[0].name.as_str(), a[0].channels, a[0].per_face),
+            ("face_color", 3, true)
+        );
+        assert_eq!(a[0].values, [0.1, 0.2, 0.3, 0.1, 0.2, 0.3]);
     }
 
     #[test]

@@ -224,6 +224,8 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         dir,
         primitives: Vec::new(),
         attrs: Vec::new(),
+        mesh_attributes: Default::default(),
+        shape_starts: Vec::new(),
         hashed: vec![bytes.to_vec()],
         stats: LoadStats {
             warnings,
@@ -245,16 +247,38 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         b.hashed
             .push(format!("photon-bench pixel filter v1: {:?}", s.kind).into_bytes());
     }
-    let mut textures = textures::Textures::new(&b.dir);
-    let (materials, material_index) = materials(&ctx, &desc.materials, &mut textures)?;
-    b.hashed.append(&mut textures.hashed);
-    b.stats.files_read.append(&mut textures.files_read);
+    // Shapes first, so that `mesh_attribute` textures find the meshes' attributes; materials
+    // are numbered in name order, as `materials` numbers them.
+    let material_index: std::collections::BTreeMap<String, u32> = (desc.materials.keys().enumerate())
+        .map(|(i, name)| (name.clone(), i as u32))
+        .collect();
+    let shape_field = |i: usize| match &shape_labels {
+        Some(labels) => labels[i].clone(),
+        None => format!("shapes[{i}]"),
+    };
     for (i, shape) in desc.shapes.iter().enumerate() {
-        let field = match &shape_labels {
-            Some(labels) => labels[i].clone(),
-            None => format!("shapes[{i}]"),
-        };
+        let field = shape_field(i);
+        b.shape_starts.push((b.primitives.len(), field.clone()));
         b.shape(&field, shape, &material_index)?;
+    }
+    let dir = b.dir.clone();
+    let mut textures = textures::Textures::new(&dir);
+    textures.meshes = Some(textures::MeshData {
+        attributes: &b.mesh_attributes,
+        attrs: &b.attrs,
+        shape_starts: &b.shape_starts,
+    });
+    let (materials, built_index) = materials(&ctx, &desc.materials, &mut textures)?;
+    debug_assert_eq!(built_index, material_index);
+    let (mut texture_bytes, mut texture_files) = (
+        std::mem::take(&mut textures.hashed),
+        std::mem::take(&mut textures.files_read),
+    );
+    drop(textures);
+    b.hashed.append(&mut texture_bytes);
+    b.stats.files_read.append(&mut texture_files);
+    for (i, shape) in desc.shapes.iter().enumerate() {
+        let field = shape_field(i);
         let (material, _, emission) = shape.common();
         if emission.is_some() && materials[material_index[material] as usize].opacity.is_some() {
             // A masked emitter would emit only where its rays stop at it.

@@ -5,8 +5,9 @@ use super::mesh::read_regular_file;
 use super::*;
 use crate::bsdf::ColorParam;
 use crate::error::Result;
+use crate::scene::desc::MeshAttributeDesc;
 use crate::scene::desc::{BitmapDesc, CheckerboardDesc, Color, ScalarDesc, TextureDesc, UvTransformDesc};
-use crate::texture::{Bitmap, Checkerboard, Filter, Scalar, Texture, UvTransform, Wrap, decode_image};
+use crate::texture::{Bitmap, Checkerboard, Filter, MeshAttribute, Scalar, Texture, UvTransform, Wrap, decode_image};
 use glam::{Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -29,6 +30,18 @@ pub(super) struct Textures<'a> {
     /// Bytes of every image read, in reading order, for the content hash.
     pub(super) hashed: Vec<Vec<u8>>,
     pub(super) files_read: Vec<PathBuf>,
+    /// What `mesh_attribute` textures read: the shapes' attributes, each primitive's material
+    /// and the shapes' first primitives and labels (set once the shapes are built).
+    pub(super) meshes: Option<MeshData<'a>>,
+    /// The index of the material being built.
+    pub(super) material: u32,
+}
+
+/// The shapes as `mesh_attribute` textures need them ([`Textures::meshes`]).
+pub(super) struct MeshData<'a> {
+    pub(super) attributes: &'a BTreeMap<String, PrimValues>,
+    pub(super) attrs: &'a [crate::scene::PrimAttrs],
+    pub(super) shape_starts: &'a [(usize, String)],
 }
 
 impl<'a> Textures<'a> {
@@ -39,6 +52,8 @@ impl<'a> Textures<'a> {
             images: BTreeMap::new(),
             hashed: Vec::new(),
             files_read: Vec::new(),
+            meshes: None,
+            material: 0,
         }
     }
 
@@ -49,7 +64,10 @@ impl<'a> Textures<'a> {
     pub(super) fn unit_color(&mut self, ctx: &Ctx, field: &str, c: &Color, param: ColorParam) -> Result<Vec3> {
         let texture = match c {
             Color::Rgb(v) => return Ok(rgb(ctx.unit_rgb(field, *v)?)),
-            Color::Texture(t) => self.texture(ctx, field, t)?,
+            Color::Texture(t) => match &**t {
+                TextureDesc::MeshAttribute(m) => self.mesh_attribute(ctx, field, m)?,
+                t => self.texture(ctx, field, t)?,
+            },
         };
         let (lo, hi) = (texture.min(), texture.max());
         if lo.min_element() < 0.0 || hi.max_element() > 1.0 || !(lo.is_finite() && hi.is_finite()) {
@@ -150,11 +168,117 @@ impl<'a> Textures<'a> {
         }
     }
 
+    /// A (u, v) texture; a mesh attribute is refused here (it drives colour parameters only:
+    /// [`Textures::unit_color`]).
     fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {
         match t {
             TextureDesc::Checkerboard(c) => checkerboard(ctx, field, c),
             TextureDesc::Bitmap(b) => self.bitmap(ctx, field, b),
+            TextureDesc::MeshAttribute(m) => Err(ctx.err(
+                field,
+                format!(
+                    "mesh attribute {:?}: a mesh attribute can drive a material's colour \
+                     (reflectance) parameters only, not this one",
+                    m.name
+                ),
+            )),
         }
+    }
+
+    /// A `mesh_attribute` texture of the material being built: every primitive of that
+    /// material must carry the attribute, with 1 or 3 channels (Mitsuba evaluates a colour
+    /// from either, and refuses others).
+    fn mesh_attribute(&mut self, ctx: &Ctx, field: &str, m: &MeshAttributeDesc) -> Result<Texture> {
+        let f = |key: &str| format!("{field}.{key}");
+        let name = &m.name;
+        if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+            return Err(ctx.err(
+                &f("name"),
+                format!("expected a name starting with \"vertex_\" or \"face_\", got {name:?}"),
+            ));
+        }
+        let scale = match m.scale {
+            None => 1.0,
+            Some(s) if s.is_finite() && (0.0..=1e4).contains(&s) => s as f32,
+            Some(s) => return Err(ctx.err(&f("scale"), format!("expected a number in [0, 1e4], got {}", num(s)))),
+        };
+        let meshes = self
+            .meshes
+            .as_ref()
+            .expect("mesh attributes are read once the shapes are built");
+        let mine = |i: usize| meshes.attrs[i].material == self.material;
+        let missing = |reason: String| -> Result<Texture> { Err(ctx.err(&f("name"), reason)) };
+        let values = meshes.attributes.get(name);
+        let mut corners = vec![[Vec3::ZERO; 3]; meshes.attrs.len()];
+        let mut has = vec![false; meshes.attrs.len()];
+        let channels = values.map_or(0, |v| v.channels);
+        if let Some(v) = values {
+            if v.per_face != name.starts_with("face_") {
+                return missing(format!(
+                    "attribute {name:?} is stored per {}",
+                    if v.per_face { "face" } else { "vertex" }
+                ));
+            }
+            if channels != 1 && channels != 3 {
+                return missing(format!(
+                    "attribute {name:?} must have 1 or 3 channels to be a colour, got {}",
+                    if channels == usize::MAX {
+                        "different counts in different meshes".to_string()
+                    } else {
+                        channels.to_string()
+                    }
+                ));
+            }
+            for (prim, c) in &v.corners {
+                let i = *prim as usize;
+                if mine(i) {
+                    let colour = |v: [f32; 4]| {
+                        if channels == 1 {
+                            Vec3::splat(v[0])
+                        } else {
+                            Vec3::new(v[0], v[1], v[2])
+                        }
+                    };
+                    corners[i] = c.map(colour);
+                    has[i] = true;
+                }
+            }
+        }
+        if let Some(i) = (0..meshes.attrs.len()).find(|&i| mine(i) && !has[i]) {
+            let shape = meshes
+                .shape_starts
+                .iter()
+                .rev()
+                .find(|(start, _)| *start <= i)
+                .map_or("a shape", |(_, label)| label.as_str());
+            return missing(format!(
+                "{shape} uses this material but its mesh has no attribute {name:?} (PLY meshes carry \
+                 them as vertex or face properties r, g, b or NAME_0, NAME_1, …)"
+            ));
+        }
+        let read: Vec<Vec3> = (0..corners.len())
+            .filter(|&i| has[i])
+            .flat_map(|i| corners[i])
+            .map(|v| v * scale)
+            .collect();
+        let min = read.iter().fold(Vec3::INFINITY, |m, &v| m.min(v));
+        let max = read.iter().fold(Vec3::NEG_INFINITY, |m, &v| m.max(v));
+        let sum: glam::DVec3 = read.iter().map(|v| v.as_dvec3()).sum();
+        let mean = (sum / read.len().max(1) as f64).as_vec3();
+        let (min, max) = if read.is_empty() {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (min, max)
+        };
+        Ok(Texture::MeshAttribute(MeshAttribute {
+            name: name.clone(),
+            scale,
+            per_face: name.starts_with("face_"),
+            corners: Arc::from(corners),
+            min,
+            max,
+            mean,
+        }))
     }
 
     fn bitmap(&mut self, ctx: &Ctx, field: &str, b: &BitmapDesc) -> Result<Texture> {

@@ -267,6 +267,7 @@ pub(super) fn materials(
         let field = format!("materials.{}", key_string(name));
         validate_material(ctx, &field, d)?;
         index.insert(name.clone(), out.len() as u32);
+        textures.material = out.len() as u32;
         // A mask is a property of the surface, not of the model: outermost (validation refuses
         // it anywhere else).
         let (d, field, opacity) = match d {

@@ -1,8 +1,8 @@
-//! `<texture>` elements (`checkerboard`, `bitmap`) and texture-valued colour parameters, named
+//! `<texture>` elements (`checkerboard`, `bitmap`, `mesh_attribute`) and texture-valued colour parameters, named
 //! (`<ref id>`) or nested.
 
 use super::*;
-use crate::scene::desc::{BitmapDesc, CheckerboardDesc, Color, Fixed, TextureDesc, UvTransformDesc};
+use crate::scene::desc::{BitmapDesc, CheckerboardDesc, Color, Fixed, MeshAttributeDesc, TextureDesc, UvTransformDesc};
 use glam::DMat4;
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -63,8 +63,20 @@ impl<'a, 'i> Reader<'a, 'i> {
                     to_uv,
                 })
             }
+            "mesh_attribute" => {
+                let Some((_, name)) = self.string(&mut o, "name")? else {
+                    return Err(self.err(n, "expected <string name=\"name\"> (the mesh attribute)"));
+                };
+                TextureDesc::MeshAttribute(MeshAttributeDesc {
+                    name,
+                    scale: self.float(&mut o, "scale")?,
+                })
+            }
             other => {
-                return Err(self.err(n, format!("unsupported texture {other:?} (checkerboard, bitmap)")));
+                return Err(self.err(
+                    n,
+                    format!("unsupported texture {other:?} (checkerboard, bitmap, mesh_attribute)"),
+                ));
             }
         };
         if let Some(&c) = o.children.first() {

@@ -257,6 +257,10 @@ impl Translator<'_> {
                             b.scale = Some(b.scale.unwrap_or(1.0) * s);
                             TextureDesc::Bitmap(b)
                         }
+                        TextureDesc::MeshAttribute(mut m) => {
+                            m.scale = Some(m.scale.unwrap_or(1.0) * s);
+                            TextureDesc::MeshAttribute(m)
+                        }
                     },
                     value => {
                         let c = match value {
