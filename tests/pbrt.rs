@@ -657,7 +657,7 @@ fn the_shipped_pbrt_still_life_loads_with_its_features() {
         2 + 12 * 64 + 3 * 8 * 16,
         "floor, blob (3 levels), three pebbles (2 levels)"
     );
-    assert!(matches!(s.delta_lights[0], photon_bench::light::delta::DeltaLight::Spot(sp) if sp.is_smoothstep()));
+    assert!(matches!(&s.delta_lights[0], photon_bench::light::delta::DeltaLight::Spot(sp) if sp.is_smoothstep()));
     assert!(matches!(
         s.environment.as_ref().unwrap().radiance,
         Radiance::EqualArea(_)

@@ -13,6 +13,8 @@
 //! - pbrt-v4's `spot` (`Spot::smoothstep`): I times smoothstep(cos θ_c, cos θ_b, cos θ), a
 //!   cubic ramp in cos θ rather than Mitsuba's linear one in θ, so the power is
 //!   2π I ((1 − cos θ_b) + (cos θ_b − cos θ_c)/2) (the smoothstep integrates to ½ over its ramp).
+//! - a spot's `texture` ([`SpotTexture`]): the intensity times a picture projected through the
+//!   cone, its power integrated numerically.
 //! - `directional`: irradiance E [W/m²] on a surface facing the light, arriving along one
 //!   direction; the power that reaches a scene of bounding radius R is π R² E.
 //!
@@ -23,11 +25,13 @@
 
 use crate::geometry::Frame;
 use crate::sampling::{sample_uniform_cone, sample_uniform_sphere, uniform_sphere_pdf};
+use crate::texture::Texture;
+use glam::Mat3;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
 
 /// A light of zero extent in position or direction.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum DeltaLight {
     /// Radiant `intensity` I [W/sr] from `position` in every direction.
     Point {
@@ -45,11 +49,13 @@ pub enum DeltaLight {
 
 /// A spot light: intensity I along its unit `axis`, falling off between the beam and the cutoff
 /// half-angles, linearly in angle (Mitsuba) or by a smoothstep in cos θ (pbrt-v4).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Spot {
     pub position: Vec3,
     pub axis: Vec3,
     pub intensity: Vec3,
+    /// Mitsuba's `texture`: the intensity times a picture projected through the cone.
+    pub texture: Option<SpotTexture>,
     /// Half-angle θ_c beyond which the spot is dark, in radians.
     cutoff: f32,
     cos_cutoff: f32,
@@ -61,6 +67,30 @@ pub struct Spot {
     smoothstep: bool,
 }
 
+/// A spot's projected picture (Mitsuba 3.9.1's `spot` with a `texture`): direction w, in the
+/// spot's frame l = (x, y, z) (z the axis), reads the texture at
+/// (u, v) = ½ + ½ (l_x / l_z, l_y / l_z) / tan θ_c — the cone's cross-section inscribed in the
+/// picture (probed with Mitsuba's `sample_direction` on a ramp texture).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpotTexture {
+    /// The spot's frame: columns x, y and the axis, orthonormal and right-handed.
+    pub frame: Mat3,
+    pub texture: Texture,
+}
+
+impl SpotTexture {
+    /// The texture's value toward unit world direction `w` (zero behind the spot).
+    #[inline]
+    pub fn value(&self, w: Vec3, tan_cutoff: f32) -> Vec3 {
+        let l = self.frame.transpose() * w;
+        if l.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let uv = Vec2::new(l.x / l.z, l.y / l.z) / tan_cutoff * 0.5 + Vec2::splat(0.5);
+        self.texture.eval(uv)
+    }
+}
+
 impl Spot {
     /// A spot with half-angles in radians, `0 < beam <= cutoff < π/2` (checked by the loader).
     pub fn new(position: Vec3, axis: Vec3, intensity: Vec3, cutoff: f32, beam: f32) -> Self {
@@ -68,6 +98,7 @@ impl Spot {
             position,
             axis: axis.normalize(),
             intensity,
+            texture: None,
             cutoff,
             cos_cutoff: cutoff.cos(),
             cos_beam: beam.cos(),
@@ -83,6 +114,59 @@ impl Spot {
             smoothstep: true,
             ..Self::new(position, axis, intensity, cutoff, beam)
         }
+    }
+
+    /// The spot with a projected picture (Mitsuba's `texture`); `frame` its frame (columns x, y,
+    /// and the axis, which must be this spot's).
+    pub fn with_texture(self, frame: Mat3, texture: Texture) -> Self {
+        Self {
+            texture: Some(SpotTexture { frame, texture }),
+            ..self
+        }
+    }
+
+    /// The spot's intensity toward unit world direction `w`: I · falloff, times the projected
+    /// picture's value there if it has one.
+    #[inline]
+    pub fn intensity_toward(&self, w: Vec3) -> Vec3 {
+        self.divided_toward(w, 1.0)
+    }
+
+    /// I · (falloff / `d`) toward `w`, times the picture's value if there is one (in this order,
+    /// so that an unpictured spot's figures keep their rounding).
+    #[inline]
+    fn divided_toward(&self, w: Vec3, d: f32) -> Vec3 {
+        let falloff = self.falloff(w);
+        if falloff <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let i = self.intensity * (falloff / d);
+        match &self.texture {
+            None => i,
+            Some(t) => i * t.value(w, self.cutoff.tan()),
+        }
+    }
+
+    /// ∫ I · falloff · picture dω: the emitted power (for a pictured spot by a 512 × 512
+    /// midpoint rule over the cone's tangent plane, dω = ds dt / (1 + s² + t²)^{3/2} — it
+    /// only sets the light's selection probability; every photon's weight is exact).
+    pub fn power(&self) -> Vec3 {
+        let Some(t) = &self.texture else {
+            return self.intensity * self.falloff_solid_angle();
+        };
+        const N: usize = 512;
+        let tan = self.cutoff.tan() as f64;
+        let step = 2.0 * tan / N as f64;
+        let mut sum = glam::DVec3::ZERO;
+        for j in 0..N {
+            for i in 0..N {
+                let (s, u) = (-tan + (i as f64 + 0.5) * step, -tan + (j as f64 + 0.5) * step);
+                let r2 = 1.0 + s * s + u * u;
+                let w = (t.frame * Vec3::new(s as f32, u as f32, 1.0)).normalize();
+                sum += self.intensity_toward(w).as_dvec3() * (step * step / (r2 * r2.sqrt()));
+            }
+        }
+        sum.as_vec3()
     }
 
     /// Whether the falloff is pbrt-v4's smoothstep.
@@ -164,16 +248,16 @@ impl DeltaLight {
                     li: intensity / dist2,
                 }
             }
-            DeltaLight::Spot(spot) => {
+            DeltaLight::Spot(ref spot) => {
                 let (wi, dist2) = toward(spot.position)?;
-                let falloff = spot.falloff(-wi);
-                if falloff <= 0.0 {
+                let li = spot.divided_toward(-wi, dist2);
+                if li.max_element() <= 0.0 {
                     return None;
                 }
                 DeltaIncidence {
                     wi,
                     dist: dist2.sqrt(),
-                    li: spot.intensity * (falloff / dist2),
+                    li,
                 }
             }
             DeltaLight::Directional { direction, irradiance } => DeltaIncidence {
@@ -196,7 +280,7 @@ impl DeltaLight {
     pub fn position(&self) -> Option<Vec3> {
         match *self {
             DeltaLight::Point { position, .. } => Some(position),
-            DeltaLight::Spot(spot) => Some(spot.position),
+            DeltaLight::Spot(ref spot) => Some(spot.position),
             DeltaLight::Directional { .. } => None,
         }
     }
@@ -207,7 +291,7 @@ impl DeltaLight {
     pub fn intensity(&self, w: Vec3) -> Vec3 {
         match *self {
             DeltaLight::Point { intensity, .. } => intensity,
-            DeltaLight::Spot(spot) => spot.intensity * spot.falloff(w),
+            DeltaLight::Spot(ref spot) => spot.intensity_toward(w),
             DeltaLight::Directional { .. } => Vec3::ZERO,
         }
     }
@@ -218,7 +302,7 @@ impl DeltaLight {
     pub fn pdf_emit_dir(&self, w: Vec3) -> f32 {
         match *self {
             DeltaLight::Point { .. } => uniform_sphere_pdf(),
-            DeltaLight::Spot(spot) if spot.axis.dot(w) >= spot.cos_cutoff => 1.0 / (TAU * (1.0 - spot.cos_cutoff)),
+            DeltaLight::Spot(ref spot) if spot.axis.dot(w) >= spot.cos_cutoff => 1.0 / (TAU * (1.0 - spot.cos_cutoff)),
             _ => 0.0,
         }
     }
@@ -227,7 +311,7 @@ impl DeltaLight {
     pub fn power(&self, scene_radius: f32) -> Vec3 {
         match *self {
             DeltaLight::Point { intensity, .. } => intensity * (4.0 * PI),
-            DeltaLight::Spot(spot) => spot.intensity * spot.falloff_solid_angle(),
+            DeltaLight::Spot(ref spot) => spot.power(),
             DeltaLight::Directional { irradiance, .. } => irradiance * (PI * scene_radius * scene_radius),
         }
     }
@@ -242,14 +326,14 @@ impl DeltaLight {
                 power: intensity / uniform_sphere_pdf(),
                 pdf_dir: uniform_sphere_pdf(),
             },
-            DeltaLight::Spot(spot) => {
+            DeltaLight::Spot(ref spot) => {
                 let local = sample_uniform_cone(u, spot.cos_cutoff);
                 let dir = Frame::from_normal(spot.axis).to_world(local).normalize();
                 let pdf_dir = self.pdf_emit_dir(dir);
                 DeltaEmission {
                     origin: spot.position,
                     dir,
-                    power: spot.intensity * (spot.falloff(dir) / pdf_dir),
+                    power: spot.divided_toward(dir, pdf_dir),
                     pdf_dir,
                 }
             }
@@ -309,6 +393,76 @@ mod tests {
         }
     }
 
+    /// A 2 × 2 picture, one colour per quadrant (nearest texels): row 0 (v < ½) is the frame's
+    /// −y half, column 0 (u < ½) its −x half.
+    fn quadrants() -> Texture {
+        use crate::texture::{Bitmap, Filter, UvTransform, Wrap};
+        Texture::Bitmap(Bitmap {
+            width: 2,
+            height: 2,
+            texels: std::sync::Arc::from(vec![
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.0, 2.0, 0.0),
+                Vec3::new(0.0, 0.0, 3.0),
+                Vec3::new(4.0, 4.0, 4.0),
+            ]),
+            filter: Filter::Nearest,
+            wrap: Wrap::Clamp,
+            to_uv: UvTransform::default(),
+        })
+    }
+
+    /// A spot at the origin pointing along −y with the frame x = +x, y = +z (as `lookat` with
+    /// up +z gives), beam 25° inside a cutoff of `cutoff_deg`, projecting `picture`.
+    fn pictured(picture: Texture, cutoff_deg: f32) -> Spot {
+        let axis = -Vec3::Y;
+        let frame = Mat3::from_cols(Vec3::X, Vec3::Z, axis);
+        assert!(
+            (frame.x_axis.cross(frame.y_axis) - axis).length() < 1e-6,
+            "right-handed"
+        );
+        Spot::new(
+            Vec3::ZERO,
+            axis,
+            Vec3::splat(2.0),
+            cutoff_deg.to_radians(),
+            25f32.to_radians(),
+        )
+        .with_texture(frame, picture)
+    }
+
+    /// A pictured spot's intensity is I · falloff · T(u, v) with (u, v) = ½ + ½ (l_x / l_z,
+    /// l_y / l_z) / tan θ_c in its frame (Mitsuba's mapping): each quadrant of the cone shows
+    /// its texel, the edge of the picture meets the cone where l_x / l_z = tan θ_c, and nothing
+    /// leaves behind the spot. Its illumination is that intensity over r².
+    #[test]
+    fn a_pictured_spot_projects_its_texels_through_its_frame() {
+        let spot = pictured(quadrants(), 35.0);
+        let light = DeltaLight::Spot(spot.clone());
+        let tan = 35f32.to_radians().tan();
+        // Directions in the frame (x = world +x, y = world +z, axis = world −y).
+        let world = |lx: f32, ly: f32| (Vec3::X * lx + Vec3::Z * ly - Vec3::Y).normalize();
+        for (lx, ly, texel) in [
+            (-0.1, -0.1, Vec3::new(1.0, 0.0, 0.0)),
+            (0.1, -0.1, Vec3::new(0.0, 2.0, 0.0)),
+            (-0.1, 0.1, Vec3::new(0.0, 0.0, 3.0)),
+            (0.1, 0.1, Vec3::splat(4.0)),
+        ] {
+            let w = world(lx, ly);
+            assert_eq!(light.intensity(w), Vec3::splat(2.0) * texel, "({lx}, {ly})");
+            let at = w * 2.0;
+            let s = light.illuminate(at).unwrap();
+            assert!((s.li - Vec3::splat(2.0) * texel / 4.0).abs().max_element() < 1e-6);
+        }
+        // Near the cone's edge along ±x, the outer columns are read.
+        let picture = spot.texture.as_ref().unwrap();
+        let uv_edge = |lx: f32| picture.value(world(lx, 0.01), tan);
+        assert_eq!(uv_edge(0.999 * tan), Vec3::splat(4.0));
+        assert_eq!(uv_edge(-0.999 * tan), Vec3::new(0.0, 0.0, 3.0));
+        // Behind the spot: nothing.
+        assert_eq!(light.intensity(Vec3::Y), Vec3::ZERO);
+    }
+
     /// The mean power of emitted samples is the light's power (each sample is an unbiased
     /// estimate of Φ), and a spot's samples stay in its cone.
     #[test]
@@ -320,6 +474,7 @@ mod tests {
             },
             DeltaLight::Spot(spot(40.0, 25.0)),
             DeltaLight::Spot(Spot::smoothstep(Vec3::ZERO, Vec3::Y, Vec3::ONE, 0.6, 0.3)),
+            DeltaLight::Spot(pictured(quadrants(), 35.0)),
             DeltaLight::Directional {
                 direction: Vec3::new(0.0, -1.0, 0.0),
                 irradiance: Vec3::splat(2.0),
@@ -333,7 +488,7 @@ mod tests {
             for _ in 0..n {
                 if let Some(e) = light.emit(rng.uniform2(), bounds) {
                     sum += e.power.as_dvec3();
-                    if let DeltaLight::Spot(s) = light {
+                    if let DeltaLight::Spot(s) = &light {
                         assert!(s.axis.dot(e.dir) >= s.cos_cutoff - 1e-6);
                     }
                     if let DeltaLight::Directional { .. } = light {

@@ -377,6 +377,13 @@ pub struct SpotLightDesc {
     /// "linear" (default): Mitsuba's ramp, linear in angle; "smoothstep": pbrt-v4's,
     /// smoothstep(cos cutoff, cos beam, cos θ).
     pub falloff: Option<String>,
+    /// Mitsuba's `texture`: a picture projected through the cone, multiplying the intensity
+    /// (a `bitmap` or `checkerboard`; values finite and non-negative). Direction l in the
+    /// spot's frame reads (u, v) = ½ + ½ (l_x / l_z, l_y / l_z) / tan(cutoff).
+    pub texture: Option<Box<TextureDesc>>,
+    /// The picture's "up": the frame is x = up × axis (normalised), y = axis × x, as Mitsuba's
+    /// `lookat` (default +y, or +x when the axis is within 26° of vertical).
+    pub up: Option<Triple>,
 }
 
 /// Parallel light travelling along `direction`, with irradiance [W/m²] on a surface facing it.

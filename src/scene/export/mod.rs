@@ -365,7 +365,7 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) ->
                 "{file}: lights[{i}].falloff: pbrt-v4's smoothstep spot has no Mitsuba 3 equivalent"
             )));
         }
-        x.push_str(&delta_light_xml(l));
+        x.push_str(&delta_light_xml(l, &files)?);
     }
     let _ = writeln!(x, "</scene>");
     if !desc.user_paths.is_empty() {
@@ -399,8 +399,8 @@ fn rfilter_xml(f: Option<desc::FilterDesc>) -> String {
 
 /// A point, spot or directional light as Mitsuba's emitter of the same name (a spot through a
 /// `lookat` whose up is any vector off its axis: the spot is symmetric about it).
-fn delta_light_xml(l: &desc::LightDesc) -> String {
-    match l {
+fn delta_light_xml(l: &desc::LightDesc, files: &Files) -> Result<String> {
+    Ok(match l {
         desc::LightDesc::Point(p) => format!(
             "    <emitter type=\"point\">\n        <point name=\"position\" value=\"{}\"/>\n        \
              <rgb name=\"intensity\" value=\"{}\"/>\n    </emitter>\n",
@@ -421,7 +421,16 @@ fn delta_light_xml(l: &desc::LightDesc) -> String {
                 (None, None) => origin - DVec3::Y,
             };
             let axis = (target - origin).normalize_or_zero();
-            let up = if axis.y.abs() > 0.9 { DVec3::X } else { DVec3::Y };
+            // The loader's default up for a picture, so that the frames agree.
+            let up = match s.up {
+                Some(u) => dvec(u),
+                None if axis.y.abs() > 0.9 => DVec3::X,
+                None => DVec3::Y,
+            };
+            let picture = match &s.texture {
+                Some(t) => files.color("texture", &Color::Texture(t.clone()), "        ")?,
+                None => String::new(),
+            };
             let angle = |name: &str, v: Option<f64>| {
                 v.map(|v| format!("        <float name=\"{name}\" value=\"{v}\"/>\n"))
                     .unwrap_or_default()
@@ -429,7 +438,7 @@ fn delta_light_xml(l: &desc::LightDesc) -> String {
             format!(
                 "    <emitter type=\"spot\">\n        <transform name=\"to_world\">\n            \
                  <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n        </transform>\n        \
-                 <rgb name=\"intensity\" value=\"{}\"/>\n{}{}    </emitter>\n",
+                 <rgb name=\"intensity\" value=\"{}\"/>\n{}{}{picture}    </emitter>\n",
                 nums(&origin.to_array()),
                 nums(&target.to_array()),
                 nums(&up.to_array()),
@@ -438,7 +447,7 @@ fn delta_light_xml(l: &desc::LightDesc) -> String {
                 angle("beam_width", s.beam_width)
             )
         }
-    }
+    })
 }
 
 /// A cylinder's axis and radius, Mitsuba's defaults written out, and its `flip_normals`.

@@ -298,9 +298,12 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         )?),
         None => None,
     };
+    let mut pictures = textures::Textures::new(&dir);
     let delta = (desc.lights.iter().enumerate())
-        .map(|(i, l)| lights::delta_light(&ctx, i, l))
+        .map(|(i, l)| lights::delta_light(&ctx, i, l, &mut pictures))
         .collect::<Result<Vec<_>>>()?;
+    b.hashed.append(&mut pictures.hashed);
+    b.stats.files_read.append(&mut pictures.files_read);
     let environment_emits = environment
         .as_ref()
         .is_some_and(|e| e.mean_radiance().max_element() > 0.0);

@@ -168,6 +168,23 @@ impl<'a> Textures<'a> {
         }
     }
 
+    /// A picture a light projects (a spot's `texture`): every value finite and non-negative.
+    pub(super) fn picture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {
+        let texture = self.texture(ctx, field, t)?;
+        let (lo, hi) = (texture.min(), texture.max());
+        if !(lo.min_element() >= 0.0 && hi.is_finite()) {
+            return Err(ctx.err(
+                field,
+                format!(
+                    "expected finite, non-negative texture values, got values from {} to {}",
+                    triple(lo.as_dvec3().to_array()),
+                    triple(hi.as_dvec3().to_array())
+                ),
+            ));
+        }
+        Ok(texture)
+    }
+
     /// A (u, v) texture; a mesh attribute is refused here (it drives colour parameters only:
     /// [`Textures::unit_color`]).
     fn texture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {

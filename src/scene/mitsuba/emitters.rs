@@ -107,14 +107,34 @@ impl<'a, 'i> Reader<'a, 'i> {
                         "a spot's to_world must be a rotation, a translation and a uniform scale",
                     ));
                 }
+                let mut intensity = self.unbounded_colour(&mut o, "intensity")?.unwrap_or(Fixed([1.0; 3]));
+                // The projected picture's frame is to_world's: its y axis is the picture's up.
+                let texture = match self.texture_colour(&mut o, "texture")? {
+                    None => None,
+                    Some(desc::Color::Rgb(c)) => {
+                        intensity = Fixed(std::array::from_fn(|k| intensity[k] * c[k]));
+                        None
+                    }
+                    Some(desc::Color::Texture(t)) => {
+                        if linear.determinant() < 0.0 {
+                            let at = to_world.as_ref().map_or(n, |(t, _)| *t);
+                            return Err(self.err(at, "a textured spot's to_world must not mirror"));
+                        }
+                        Some(t)
+                    }
+                };
                 desc::LightDesc::Spot(desc::SpotLightDesc {
                     position: Fixed(translation.to_array()),
                     target: None,
                     direction: Some(Fixed(axis.to_array())),
-                    intensity: self.unbounded_colour(&mut o, "intensity")?.unwrap_or(Fixed([1.0; 3])),
+                    intensity,
                     cutoff_angle: self.float(&mut o, "cutoff_angle")?,
                     beam_width: self.float(&mut o, "beam_width")?,
                     falloff: None,
+                    up: texture
+                        .is_some()
+                        .then(|| Fixed(matrix.transform_vector3(DVec3::Y).to_array())),
+                    texture,
                 })
             }
             _ => {
@@ -127,10 +147,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             }
         };
         if let Some(&c) = o.children.first() {
-            return Err(self.err(
-                c,
-                "unexpected element in an emitter (a projected texture is not supported)",
-            ));
+            return Err(self.err(c, "unexpected element in an emitter"));
         }
         self.finish(&o)?;
         Ok(light)

@@ -638,6 +638,8 @@ impl Translator<'_> {
                     cutoff_angle: Some(cone),
                     beam_width: Some(beam),
                     falloff: Some("smoothstep".into()),
+                    texture: None,
+                    up: None,
                 }));
             }
             "distant" => {
