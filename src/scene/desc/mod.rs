@@ -222,6 +222,8 @@
 //! beam_width = 20                   # optional: full intensity inside it, default 3/4 of the cutoff
 //! falloff = "linear"                # optional: Mitsuba's ramp linear in angle (default), or
 //!                                   # "smoothstep": pbrt-v4's, smooth in cos θ
+//! # texture = { type = "bitmap", file = "slide.png" }  # optional: a picture projected through
+//! # up = [0, 0, 1]                  #   the cone (cutoff < 90), and its up (frame x = up × axis)
 //! [[lights]]
 //! type = "directional"
 //! direction = [-0.2, -1, 0.1]       # where the light travels
