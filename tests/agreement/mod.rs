@@ -51,6 +51,16 @@ pub fn assert_agrees(kind: &str, (m, se): (f64, f64), (m0, se0): (f64, f64)) {
     assert!(z.abs() < 4.0, "{kind}: {m} ± {se} vs path {m0} ± {se0} (z = {z:.2})");
 }
 
+#[allow(dead_code)]
+/// Asserts that `bdpt`, `light`, `photon_guided` and `mlt` (defaults, 64 spp) agree with `path`
+/// on `scene`: the unbiased strategies that start paths on lights or mutate them.
+pub fn assert_light_starting_strategies_agree(scene: &Scene) {
+    let base = image_mean(scene, "path", "", 64);
+    for kind in ["bdpt", "light", "photon_guided", "mlt"] {
+        assert_agrees(kind, image_mean(scene, kind, "", 64), base);
+    }
+}
+
 /// Asserts that `err` is one line holding every text of `expect` (a field name, the value).
 #[allow(dead_code)] // not every test binary that includes this module refuses input
 pub fn assert_refused(err: &str, expect: &[&str]) {

@@ -71,13 +71,11 @@ impl<'a> Textures<'a> {
         };
         let (lo, hi) = (texture.min(), texture.max());
         if lo.min_element() < 0.0 || hi.max_element() > 1.0 || !(lo.is_finite() && hi.is_finite()) {
-            return Err(ctx.err(
+            return Err(values_error(
+                ctx,
                 field,
-                format!(
-                    "expected every texture value in [0, 1] (a reflectance), got values from {} to {}",
-                    triple(lo.as_dvec3().to_array()),
-                    triple(hi.as_dvec3().to_array())
-                ),
+                &texture,
+                "every texture value in [0, 1] (a reflectance)",
             ));
         }
         self.params.push((param, texture));
@@ -171,15 +169,12 @@ impl<'a> Textures<'a> {
     /// A picture a light projects (a spot's `texture`): every value finite and non-negative.
     pub(super) fn picture(&mut self, ctx: &Ctx, field: &str, t: &TextureDesc) -> Result<Texture> {
         let texture = self.texture(ctx, field, t)?;
-        let (lo, hi) = (texture.min(), texture.max());
-        if !(lo.min_element() >= 0.0 && hi.is_finite()) {
-            return Err(ctx.err(
+        if !(texture.min().min_element() >= 0.0 && texture.max().is_finite()) {
+            return Err(values_error(
+                ctx,
                 field,
-                format!(
-                    "expected finite, non-negative texture values, got values from {} to {}",
-                    triple(lo.as_dvec3().to_array()),
-                    triple(hi.as_dvec3().to_array())
-                ),
+                &texture,
+                "finite, non-negative texture values",
             ));
         }
         Ok(texture)
@@ -361,6 +356,19 @@ impl<'a> Textures<'a> {
             to_uv: uv_transform(ctx, &f("to_uv"), b.to_uv.as_ref())?,
         }))
     }
+}
+
+/// A texture whose values are out of range: what was `expected`, and the per-channel least and
+/// largest values it has.
+fn values_error(ctx: &Ctx, field: &str, texture: &Texture, expected: &str) -> crate::error::Error {
+    ctx.err(
+        field,
+        format!(
+            "expected {expected}, got values from {} to {}",
+            triple(texture.min().as_dvec3().to_array()),
+            triple(texture.max().as_dvec3().to_array())
+        ),
+    )
 }
 
 fn checkerboard(ctx: &Ctx, field: &str, c: &CheckerboardDesc) -> Result<Texture> {
