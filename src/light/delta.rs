@@ -76,17 +76,21 @@ pub struct SpotTexture {
     /// The spot's frame: columns x, y and the axis, orthonormal and right-handed.
     pub frame: Mat3,
     pub texture: Texture,
+    /// tan θ_c of the spot's cutoff.
+    tan_cutoff: f32,
+    /// ∫ I · falloff · picture dω, integrated once when the picture is set ([`Spot::power`]).
+    power: Vec3,
 }
 
 impl SpotTexture {
     /// The texture's value toward unit world direction `w` (zero behind the spot).
     #[inline]
-    pub fn value(&self, w: Vec3, tan_cutoff: f32) -> Vec3 {
+    pub fn value(&self, w: Vec3) -> Vec3 {
         let l = self.frame.transpose() * w;
         if l.z <= 0.0 {
             return Vec3::ZERO;
         }
-        let uv = Vec2::new(l.x / l.z, l.y / l.z) / tan_cutoff * 0.5 + Vec2::splat(0.5);
+        let uv = Vec2::new(l.x / l.z, l.y / l.z) / self.tan_cutoff * 0.5 + Vec2::splat(0.5);
         self.texture.eval(uv)
     }
 }
@@ -119,10 +123,20 @@ impl Spot {
     /// The spot with a projected picture (Mitsuba's `texture`); `frame` its frame (columns x, y,
     /// and the axis, which must be this spot's).
     pub fn with_texture(self, frame: Mat3, texture: Texture) -> Self {
-        Self {
-            texture: Some(SpotTexture { frame, texture }),
+        let mut spot = Self {
+            texture: Some(SpotTexture {
+                frame,
+                texture,
+                tan_cutoff: self.cutoff.tan(),
+                power: Vec3::ZERO,
+            }),
             ..self
+        };
+        let power = spot.pictured_power(frame);
+        if let Some(t) = &mut spot.texture {
+            t.power = power;
         }
+        spot
     }
 
     /// The spot's intensity toward unit world direction `w`: I · falloff, times the projected
@@ -143,17 +157,23 @@ impl Spot {
         let i = self.intensity * (falloff / d);
         match &self.texture {
             None => i,
-            Some(t) => i * t.value(w, self.cutoff.tan()),
+            Some(t) => i * t.value(w),
         }
     }
 
-    /// ∫ I · falloff · picture dω: the emitted power (for a pictured spot by a 512 × 512
-    /// midpoint rule over the cone's tangent plane, dω = ds dt / (1 + s² + t²)^{3/2} — it
-    /// only sets the light's selection probability; every photon's weight is exact).
+    /// ∫ I · falloff · picture dω: the emitted power (for a pictured spot integrated once when
+    /// the picture is set: it only sets the light's selection probability; every photon's
+    /// weight is exact).
     pub fn power(&self) -> Vec3 {
-        let Some(t) = &self.texture else {
-            return self.intensity * self.falloff_solid_angle();
-        };
+        match &self.texture {
+            Some(t) => t.power,
+            None => self.intensity * self.falloff_solid_angle(),
+        }
+    }
+
+    /// A pictured spot's power by a 512 × 512 midpoint rule over the cone's tangent plane in
+    /// `frame`, dω = ds dt / (1 + s² + t²)^{3/2}.
+    fn pictured_power(&self, frame: Mat3) -> Vec3 {
         const N: usize = 512;
         let tan = self.cutoff.tan() as f64;
         let step = 2.0 * tan / N as f64;
@@ -162,7 +182,7 @@ impl Spot {
             for i in 0..N {
                 let (s, u) = (-tan + (i as f64 + 0.5) * step, -tan + (j as f64 + 0.5) * step);
                 let r2 = 1.0 + s * s + u * u;
-                let w = (t.frame * Vec3::new(s as f32, u as f32, 1.0)).normalize();
+                let w = (frame * Vec3::new(s as f32, u as f32, 1.0)).normalize();
                 sum += self.intensity_toward(w).as_dvec3() * (step * step / (r2 * r2.sqrt()));
             }
         }
@@ -456,7 +476,7 @@ mod tests {
         }
         // Near the cone's edge along ±x, the outer columns are read.
         let picture = spot.texture.as_ref().unwrap();
-        let uv_edge = |lx: f32| picture.value(world(lx, 0.01), tan);
+        let uv_edge = |lx: f32| picture.value(world(lx, 0.01));
         assert_eq!(uv_edge(0.999 * tan), Vec3::splat(4.0));
         assert_eq!(uv_edge(-0.999 * tan), Vec3::new(0.0, 0.0, 3.0));
         // Behind the spot: nothing.

@@ -261,8 +261,7 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         b.shape_starts.push((b.primitives.len(), field.clone()));
         b.shape(&field, shape, &material_index)?;
     }
-    let dir = b.dir.clone();
-    let mut textures = textures::Textures::new(&dir);
+    let mut textures = textures::Textures::new(&b.dir);
     textures.meshes = Some(textures::MeshData {
         attributes: &b.mesh_attributes,
         attrs: &b.attrs,
@@ -270,13 +269,8 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
     });
     let (materials, built_index) = materials(&ctx, &desc.materials, &mut textures)?;
     debug_assert_eq!(built_index, material_index);
-    let (mut texture_bytes, mut texture_files) = (
-        std::mem::take(&mut textures.hashed),
-        std::mem::take(&mut textures.files_read),
-    );
-    drop(textures);
-    b.hashed.append(&mut texture_bytes);
-    b.stats.files_read.append(&mut texture_files);
+    b.hashed.append(&mut textures.hashed);
+    b.stats.files_read.append(&mut textures.files_read);
     for (i, shape) in desc.shapes.iter().enumerate() {
         let field = shape_field(i);
         let (material, _, emission) = shape.common();
@@ -298,12 +292,13 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         )?),
         None => None,
     };
-    let mut pictures = textures::Textures::new(&dir);
+    // Lights' pictures through the same reader: an image a material already read is not
+    // decoded again (nor hashed twice).
     let delta = (desc.lights.iter().enumerate())
-        .map(|(i, l)| lights::delta_light(&ctx, i, l, &mut pictures))
+        .map(|(i, l)| lights::delta_light(&ctx, i, l, &mut textures))
         .collect::<Result<Vec<_>>>()?;
-    b.hashed.append(&mut pictures.hashed);
-    b.stats.files_read.append(&mut pictures.files_read);
+    b.hashed.append(&mut textures.hashed);
+    b.stats.files_read.append(&mut textures.files_read);
     let environment_emits = environment
         .as_ref()
         .is_some_and(|e| e.mean_radiance().max_element() > 0.0);

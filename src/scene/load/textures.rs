@@ -218,70 +218,52 @@ impl<'a> Textures<'a> {
             .meshes
             .as_ref()
             .expect("mesh attributes are read once the shapes are built");
-        let mine = |i: usize| meshes.attrs[i].material == self.material;
-        let missing = |reason: String| -> Result<Texture> { Err(ctx.err(&f("name"), reason)) };
-        let values = meshes.attributes.get(name);
+        let refuse = |reason: String| -> Result<Texture> { Err(ctx.err(&f("name"), reason)) };
+        // Per primitive of this material, its corners' colours; every other primitive zero.
         let mut corners = vec![[Vec3::ZERO; 3]; meshes.attrs.len()];
-        let mut has = vec![false; meshes.attrs.len()];
-        let channels = values.map_or(0, |v| v.channels);
-        if let Some(v) = values {
-            if v.per_face != name.starts_with("face_") {
-                return missing(format!(
-                    "attribute {name:?} is stored per {}",
-                    if v.per_face { "face" } else { "vertex" }
-                ));
-            }
-            if channels != 1 && channels != 3 {
-                return missing(format!(
-                    "attribute {name:?} must have 1 or 3 channels to be a colour, got {}",
-                    if channels == usize::MAX {
-                        "different counts in different meshes".to_string()
-                    } else {
-                        channels.to_string()
-                    }
-                ));
-            }
-            for (prim, c) in &v.corners {
-                let i = *prim as usize;
-                if mine(i) {
-                    let colour = |v: [f32; 4]| {
-                        if channels == 1 {
-                            Vec3::splat(v[0])
-                        } else {
-                            Vec3::new(v[0], v[1], v[2])
-                        }
-                    };
+        let mut read = vec![false; meshes.attrs.len()];
+        let (mut min, mut max, mut sum) = (Vec3::INFINITY, Vec3::NEG_INFINITY, glam::DVec3::ZERO);
+        if let Some(v) = meshes.attributes.get(name) {
+            let colour = match v.channels {
+                1 => |c: [f32; 4]| Vec3::splat(c[0]),
+                3 => |c: [f32; 4]| Vec3::new(c[0], c[1], c[2]),
+                usize::MAX => return refuse(format!("meshes give attribute {name:?} different channel counts")),
+                n => {
+                    return refuse(format!(
+                        "attribute {name:?} must have 1 or 3 channels to be a colour, got {n}"
+                    ));
+                }
+            };
+            for &(prim, c) in &v.corners {
+                let i = prim as usize;
+                if meshes.attrs[i].material == self.material {
                     corners[i] = c.map(colour);
-                    has[i] = true;
+                    read[i] = true;
+                    for v in corners[i].map(|v| v * scale) {
+                        (min, max, sum) = (min.min(v), max.max(v), sum + v.as_dvec3());
+                    }
                 }
             }
         }
-        if let Some(i) = (0..meshes.attrs.len()).find(|&i| mine(i) && !has[i]) {
+        let count = read.iter().filter(|&&r| r).count();
+        if let Some(i) = (0..read.len()).find(|&i| !read[i] && meshes.attrs[i].material == self.material) {
             let shape = meshes
                 .shape_starts
                 .iter()
                 .rev()
                 .find(|(start, _)| *start <= i)
                 .map_or("a shape", |(_, label)| label.as_str());
-            return missing(format!(
+            return refuse(format!(
                 "{shape} uses this material but its mesh has no attribute {name:?} (PLY meshes carry \
                  them as vertex or face properties r, g, b or NAME_0, NAME_1, …)"
             ));
         }
-        let read: Vec<Vec3> = (0..corners.len())
-            .filter(|&i| has[i])
-            .flat_map(|i| corners[i])
-            .map(|v| v * scale)
-            .collect();
-        let min = read.iter().fold(Vec3::INFINITY, |m, &v| m.min(v));
-        let max = read.iter().fold(Vec3::NEG_INFINITY, |m, &v| m.max(v));
-        let sum: glam::DVec3 = read.iter().map(|v| v.as_dvec3()).sum();
-        let mean = (sum / read.len().max(1) as f64).as_vec3();
-        let (min, max) = if read.is_empty() {
+        let (min, max) = if count == 0 {
             (Vec3::ZERO, Vec3::ZERO)
         } else {
             (min, max)
         };
+        let mean = (sum / (3 * count).max(1) as f64).as_vec3();
         Ok(Texture::MeshAttribute(MeshAttribute {
             name: name.clone(),
             scale,
