@@ -1,5 +1,5 @@
 //! Textures: colours that vary over a surface with its (u, v) coordinates, as Mitsuba 3 defines
-//! them: `checkerboard` and `bitmap` (PNG, JPEG or OpenEXR), each with an affine `to_uv` map.
+//! them: `checkerboard` and `bitmap` (PNG, JPEG, BMP or OpenEXR), each with an affine `to_uv` map.
 //!
 //! What lives here: the textures' data and their evaluation at a (u, v) point, and decoding of
 //! image files into linear RGB. What does not: where (u, v) comes from (the scene's primitives,
@@ -16,7 +16,7 @@
 //!   used as they are, as Mitsuba 3.9.1 does).
 //! - Bilinear filtering interpolates the four texels around u'·W − ½, v'·H − ½; `nearest` takes
 //!   the texel under (u', v'). Wrap modes `repeat`, `mirror` and `clamp` act on texel indices.
-//! - 8- and 16-bit PNG and JPEG files hold sRGB-encoded values; they are decoded to linear RGB
+//! - 8- and 16-bit PNG, JPEG and BMP files hold sRGB-encoded values; they are decoded to linear RGB
 //!   per texel when loaded (before filtering) unless `raw`; OpenEXR files are linear already.
 //!   Alpha is ignored; a grey image gives grey colours.
 //! - The checkerboard picks `color0` where the fractional parts of u' and v' are on the same
@@ -332,7 +332,7 @@ impl Bitmap {
     /// The texel at integer coordinates (given as floats, possibly outside the image or not
     /// finite), after wrapping.
     #[inline]
-    fn texel(&self, x: f32, y: f32) -> Vec3 {
+    pub(crate) fn texel(&self, x: f32, y: f32) -> Vec3 {
         let x = wrap_index(x, self.width, self.wrap);
         let y = wrap_index(y, self.height, self.wrap);
         self.texels[y * self.width as usize + x]
@@ -369,16 +369,19 @@ pub fn srgb_to_linear(v: f32) -> f32 {
     }
 }
 
-/// Decodes an image file's bytes into linear RGB texels: PNG and JPEG (sRGB-encoded unless
-/// `raw`) by their signature, OpenEXR (linear). Returns width, height and the texels, or a
+/// Decodes an image file's bytes into linear RGB texels: PNG, JPEG and BMP (sRGB-encoded unless
+/// `raw`, as Mitsuba reads 8-bit images) by their signature, OpenEXR (linear). Returns width, height and the texels, or a
 /// message saying what is wrong with the file.
 pub fn decode_image(bytes: &[u8], raw: bool) -> Result<(u32, u32, Vec<Vec3>), String> {
     if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
         return decode_exr(bytes);
     }
-    let format = image::guess_format(bytes).map_err(|_| "not a PNG, JPEG or OpenEXR image".to_string())?;
-    if !matches!(format, image::ImageFormat::Png | image::ImageFormat::Jpeg) {
-        return Err(format!("a {format:?} image; expected PNG, JPEG or OpenEXR"));
+    let format = image::guess_format(bytes).map_err(|_| "not a PNG, JPEG, BMP or OpenEXR image".to_string())?;
+    if !matches!(
+        format,
+        image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::Bmp
+    ) {
+        return Err(format!("a {format:?} image; expected PNG, JPEG, BMP or OpenEXR"));
     }
     let img = image::load_from_memory_with_format(bytes, format).map_err(|e| format!("cannot decode: {e}"))?;
     let (width, height) = (img.width(), img.height());

@@ -273,7 +273,7 @@ fn strategies_that_cannot_reach_delta_lights_refuse_the_scene() {
         (
             &room,
             [&eye_paths[..], &["light", "bdpt", "vcm", "mlt", "mps"]].concat(),
-            "point or spot",
+            "point, spot or projector",
         ),
         (
             &sun,
@@ -299,7 +299,7 @@ fn strategies_that_cannot_reach_delta_lights_refuse_the_scene() {
     // A path tracer that finds light only by hitting it cannot see a point light.
     let bsdf_only = strategy::build("path", toml::from_str("direct = \"bsdf\"").unwrap()).unwrap();
     let e = strategy::check_scene(&*bsdf_only, &room).unwrap_err().to_string();
-    assert!(e.contains("`path`") && e.contains("point or spot"), "{e}");
+    assert!(e.contains("`path`") && e.contains("point, spot or projector"), "{e}");
 }
 
 #[test]
@@ -427,7 +427,7 @@ fn mitsuba_delta_emitters_are_imported() {
         r#"<emitter type="spot"><transform name="to_world"><scale x="-1"/></transform><texture type="checkerboard" name="texture"/></emitter>"#,
         "must not mirror",
     );
-    refused(r#"<emitter type="projector"/>"#, "unsupported emitter");
+    refused(r#"<emitter type="directionalarea"/>"#, "unsupported emitter");
 }
 
 /// Light that reaches the floor only off a rough metal reflector (an occluder hides the point

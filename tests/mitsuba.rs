@@ -394,8 +394,8 @@ fn bad_xml_is_refused_naming_the_element() {
             &["<shape type=\"sdfgrid\">", "unsupported shape"],
         ),
         (
-            scene_xml(&format!("{LIGHT}<emitter type=\"projector\"/>")),
-            &["<emitter type=\"projector\">", "unsupported emitter"],
+            scene_xml(&format!("{LIGHT}<emitter type=\"directionalarea\"/>")),
+            &["<emitter type=\"directionalarea\">", "unsupported emitter"],
         ),
         (
             scene_xml(&format!("{LIGHT}<texture type=\"bitmap\" id=\"t\"/>")),

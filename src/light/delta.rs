@@ -15,14 +15,18 @@
 //!   2π I ((1 − cos θ_b) + (cos θ_b − cos θ_c)/2) (the smoothstep integrates to ½ over its ramp).
 //! - a spot's `texture` ([`SpotTexture`]): the intensity times a picture projected through the
 //!   cone, its power integrated numerically.
+//! - `projector` ([`Projector`]): a picture of irradiance seen through a pinhole, intensity
+//!   π s E(u, v) / cos³ θ inside its rectangle of view.
 //! - `directional`: irradiance E [W/m²] on a surface facing the light, arriving along one
 //!   direction; the power that reaches a scene of bounding radius R is π R² E.
 //!
 //! Photons (and light sub-paths) leave a point or a spot at its position: a point in a
 //! uniformly distributed direction, a spot uniformly inside its cutoff cone (Mitsuba's
-//! `sample_ray`), each carrying intensity × falloff / density. Directional photons start on a
+//! `sample_ray`), each carrying intensity × falloff / density; a projector's where its picture is
+//! bright ([`super::picture`]). Directional photons start on a
 //! disc of radius R facing the light, one R beyond the scene's centre, as environment photons do.
 
+use super::projector::Projector;
 use crate::geometry::Frame;
 use crate::sampling::{sample_uniform_cone, sample_uniform_sphere, uniform_sphere_pdf};
 use crate::texture::Texture;
@@ -39,6 +43,7 @@ pub enum DeltaLight {
         intensity: Vec3,
     },
     Spot(Spot),
+    Projector(Projector),
     /// Parallel light travelling along unit `direction` with `irradiance` E [W/m²] on a
     /// surface facing it.
     Directional {
@@ -280,6 +285,14 @@ impl DeltaLight {
                     li,
                 }
             }
+            DeltaLight::Projector(ref p) => {
+                let (wi, dist2) = toward(p.position)?;
+                DeltaIncidence {
+                    wi,
+                    dist: dist2.sqrt(),
+                    li: p.divided_toward(-wi, dist2),
+                }
+            }
             DeltaLight::Directional { direction, irradiance } => DeltaIncidence {
                 wi: -direction,
                 dist: f32::INFINITY,
@@ -301,6 +314,7 @@ impl DeltaLight {
         match *self {
             DeltaLight::Point { position, .. } => Some(position),
             DeltaLight::Spot(ref spot) => Some(spot.position),
+            DeltaLight::Projector(ref p) => Some(p.position),
             DeltaLight::Directional { .. } => None,
         }
     }
@@ -312,17 +326,19 @@ impl DeltaLight {
         match *self {
             DeltaLight::Point { intensity, .. } => intensity,
             DeltaLight::Spot(ref spot) => spot.intensity_toward(w),
+            DeltaLight::Projector(ref p) => p.intensity_toward(w),
             DeltaLight::Directional { .. } => Vec3::ZERO,
         }
     }
 
-    /// Solid-angle density with which [`DeltaLight::emit`] sends a point's or a spot's ray in
-    /// unit world direction `w` (0 for directional light).
+    /// Solid-angle density with which [`DeltaLight::emit`] sends a point's, a spot's or a
+    /// projector's ray in unit world direction `w` (0 for directional light).
     #[inline]
     pub fn pdf_emit_dir(&self, w: Vec3) -> f32 {
         match *self {
             DeltaLight::Point { .. } => uniform_sphere_pdf(),
             DeltaLight::Spot(ref spot) if spot.axis.dot(w) >= spot.cos_cutoff => 1.0 / (TAU * (1.0 - spot.cos_cutoff)),
+            DeltaLight::Projector(ref p) => p.pdf_dir(w),
             _ => 0.0,
         }
     }
@@ -332,6 +348,7 @@ impl DeltaLight {
         match *self {
             DeltaLight::Point { intensity, .. } => intensity * (4.0 * PI),
             DeltaLight::Spot(ref spot) => spot.power(),
+            DeltaLight::Projector(ref p) => p.power(),
             DeltaLight::Directional { irradiance, .. } => irradiance * (PI * scene_radius * scene_radius),
         }
     }
@@ -355,6 +372,15 @@ impl DeltaLight {
                     dir,
                     power: spot.divided_toward(dir, pdf_dir),
                     pdf_dir,
+                }
+            }
+            DeltaLight::Projector(ref p) => {
+                let ray = p.emit(u)?;
+                DeltaEmission {
+                    origin: p.position,
+                    dir: ray.dir,
+                    power: ray.power,
+                    pdf_dir: ray.pdf_dir,
                 }
             }
             DeltaLight::Directional { direction, irradiance } => DeltaEmission {

@@ -18,6 +18,8 @@
 pub mod delta;
 pub mod environment;
 pub mod equal_area;
+pub mod picture;
+pub mod projector;
 pub mod sphere_cone;
 
 #[cfg(test)]

@@ -85,7 +85,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 pub enum VertexKind {
     /// x₀, a point on light `index` of `Scene::lights`.
     Light(u32),
-    /// x₀, the position of point or spot light `index` of `Scene::delta_lights`. It has no
+    /// x₀, the position of point, spot or projector light `index` of `Scene::delta_lights`. It has no
     /// normal (`ng` is zero): its emission is an intensity, so the edge leaving it has no
     /// cosine at x₀ ([`cos_at`]), and its "area density" is the probability of choosing it, a
     /// delta that every technique able to make such a path shares (the eye side can never
@@ -177,7 +177,7 @@ impl Vertex {
         }
     }
 
-    /// x₀ at delta light `j` of `Scene::delta_lights`: the position of a point or spot light,
+    /// x₀ at delta light `j` of `Scene::delta_lights`: the position of a point, spot or projector light,
     /// the direction of a directional light.
     pub fn delta_light(scene: &Scene, j: usize) -> Self {
         match scene.delta_lights[j] {
@@ -263,7 +263,7 @@ impl Vertex {
         Some(Self::light(scene, light, self.p, self.ng))
     }
 
-    /// x₀ of a path: a point on an area light, a point or spot light, the environment or a
+    /// x₀ of a path: a point on an area light, a point, spot or projector light, the environment or a
     /// directional light.
     #[inline]
     pub fn is_light(&self) -> bool {
@@ -356,7 +356,7 @@ pub fn direction(a: &Vertex, b: &Vertex) -> (Vec3, f32) {
     }
 }
 
-/// |cos θ| of direction `d` at vertex `v`: 1 at a point or spot light, whose emission is an
+/// |cos θ| of direction `d` at vertex `v`: 1 at a point, spot or projector light, whose emission is an
 /// intensity (Le G becomes I |cos θ₁| / r² [Veach 1997, §8.1.1 on point sources]), and at a
 /// light infinitely far away (module doc).
 #[inline]
@@ -485,7 +485,7 @@ pub fn geometry(a: &Vertex, b: &Vertex) -> f32 {
     }
 }
 
-/// Emitted radiance Le(x₀ → x₁) (the intensity I(x₀ → x₁) at a point or spot light, the
+/// Emitted radiance Le(x₀ → x₁) (the intensity I(x₀ → x₁) at a point, spot or projector light, the
 /// irradiance E of a directional light).
 pub fn emitted(scene: &Scene, path: &[Vertex]) -> Vec3 {
     let d = direction(&path[0], &path[1]).0;

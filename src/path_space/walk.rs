@@ -83,7 +83,7 @@ pub fn scatter(scene: &Scene, walk: &mut [Vertex], mode: TransportMode, rng: &mu
 }
 
 /// A light vertex x₀: an emitter chosen ∝ power, a point uniformly on it (the position of a
-/// point or spot light, the direction of a directional light, a direction from the
+/// point, spot or projector light, the direction of a directional light, a direction from the
 /// environment's importance sampling). `None` when the environment's sample carries nothing.
 pub fn sample_light_vertex(scene: &Scene, rng: &mut Rng) -> Option<Vertex> {
     let (i, _, _) = scene.light_selection.sample(rng.uniform());

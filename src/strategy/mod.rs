@@ -252,7 +252,7 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
         )
     };
     if scene.delta_lights.iter().any(|l| l.is_positional()) && !strategy.handles_point_lights() {
-        refuse("point or spot lights", |s| s.handles_point_lights())?;
+        refuse("point, spot or projector lights", |s| s.handles_point_lights())?;
     }
     if scene.delta_lights.iter().any(|l| !l.is_positional()) && !strategy.handles_directional_lights() {
         refuse("directional light", |s| s.handles_directional_lights())?;

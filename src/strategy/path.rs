@@ -312,7 +312,7 @@ fn light_sample_f(hit: &SurfaceHit, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> Option<(
 }
 
 /// The shadow ray from surface point `p` (geometric normal `ng`) toward a delta light: up to
-/// just short of a point or spot (a light on a surface is not hidden by it), to infinity for
+/// just short of a point, spot or projector (a light on a surface is not hidden by it), to infinity for
 /// directional light.
 #[inline]
 pub(crate) fn delta_shadow_ray(p: Vec3, ng: Vec3, s: &DeltaIncidence) -> Ray {

@@ -202,7 +202,7 @@
 //! # Light from infinitely far away (optional): a constant or an image (latitude–longitude).
 //! [environment]
 //! type = "envmap"                   # or type = "constant" with radiance = [r, g, b]
-//! file = "textures/sky.exr"         # OpenEXR (linear), PNG or JPEG (sRGB); relative to here
+//! file = "textures/sky.exr"         # OpenEXR (linear), PNG, JPEG or BMP (sRGB); relative to here
 //! scale = 1.0                       # optional, default 1
 //! transform = { rotate_y = 90 }     # optional; rotations only
 //! mapping = "latlong"               # optional: Mitsuba's latitude–longitude (default), or
@@ -350,6 +350,7 @@ pub struct SceneDesc {
 pub enum LightDesc {
     Point(PointLightDesc),
     Spot(SpotLightDesc),
+    Projector(ProjectorLightDesc),
     Directional(DirectionalLightDesc),
 }
 
@@ -388,6 +389,31 @@ pub struct SpotLightDesc {
     pub up: Option<Triple>,
 }
 
+/// Mitsuba 3's `projector`: a picture of irradiance seen through a pinhole at `position`,
+/// looking along its axis with the picture's `up` (the frame of Mitsuba's `lookat`: x = up ×
+/// axis normalised, y = axis × x; default up +y, or +x when the axis is within 26° of
+/// vertical). Intensity π · scale · E(u, v) / cos³ θ, so that a plane facing it at distance 1
+/// receives π · scale · E ([`crate::light::projector`]).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProjectorLightDesc {
+    pub position: Triple,
+    /// A point on the axis (give this or `direction`).
+    pub target: Option<Triple>,
+    /// The axis (give this or `target`).
+    pub direction: Option<Triple>,
+    pub up: Option<Triple>,
+    /// Field of view in degrees, in (0, 180), along `fov_axis`.
+    pub fov: f64,
+    /// "x" (default), "y", "diagonal", "smaller" or "larger" of the picture, as Mitsuba's.
+    pub fov_axis: Option<String>,
+    /// E: a colour, or a picture (`bitmap` or `checkerboard`) whose resolution sets the aspect
+    /// ratio of the view (a constant's is 1). Default [1, 1, 1].
+    pub irradiance: Option<Color>,
+    /// Multiplies the irradiance (default 1).
+    pub scale: Option<f64>,
+}
+
 /// Parallel light travelling along `direction`, with irradiance [W/m²] on a surface facing it.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -411,7 +437,7 @@ pub struct ConstantEnvironment {
     pub radiance: Triple,
 }
 
-/// A latitude–longitude image (Mitsuba's `envmap`): OpenEXR (linear), PNG or JPEG (sRGB).
+/// A latitude–longitude image (Mitsuba's `envmap`): OpenEXR (linear), PNG, JPEG or BMP (sRGB).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EnvmapDesc {

@@ -397,8 +397,8 @@ fn rfilter_xml(f: Option<desc::FilterDesc>) -> String {
     }
 }
 
-/// A point, spot or directional light as Mitsuba's emitter of the same name (a spot through a
-/// `lookat` whose up is any vector off its axis: the spot is symmetric about it).
+/// A point, spot, projector or directional light as Mitsuba's emitter of the same name (a spot
+/// or a projector through a `lookat` with the loader's up).
 fn delta_light_xml(l: &desc::LightDesc, files: &Files) -> Result<String> {
     Ok(match l {
         desc::LightDesc::Point(p) => format!(
@@ -414,19 +414,6 @@ fn delta_light_xml(l: &desc::LightDesc, files: &Files) -> Result<String> {
             nums(&d.irradiance.0)
         ),
         desc::LightDesc::Spot(s) => {
-            let origin = dvec(s.position);
-            let target = match (s.target, s.direction) {
-                (Some(t), _) => dvec(t),
-                (None, Some(d)) => origin + dvec(d),
-                (None, None) => origin - DVec3::Y,
-            };
-            let axis = (target - origin).normalize_or_zero();
-            // The loader's default up for a picture, so that the frames agree.
-            let up = match s.up {
-                Some(u) => dvec(u),
-                None if axis.y.abs() > 0.9 => DVec3::X,
-                None => DVec3::Y,
-            };
             let picture = match &s.texture {
                 Some(t) => files.color("texture", &Color::Texture(t.clone()), "        ")?,
                 None => String::new(),
@@ -436,18 +423,57 @@ fn delta_light_xml(l: &desc::LightDesc, files: &Files) -> Result<String> {
                     .unwrap_or_default()
             };
             format!(
-                "    <emitter type=\"spot\">\n        <transform name=\"to_world\">\n            \
-                 <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n        </transform>\n        \
-                 <rgb name=\"intensity\" value=\"{}\"/>\n{}{}{picture}    </emitter>\n",
-                nums(&origin.to_array()),
-                nums(&target.to_array()),
-                nums(&up.to_array()),
+                "    <emitter type=\"spot\">\n{}        <rgb name=\"intensity\" value=\"{}\"/>\n{}{}{picture}    </emitter>\n",
+                lookat_xml(s.position, s.target, s.direction, s.up),
                 nums(&s.intensity.0),
                 angle("cutoff_angle", s.cutoff_angle),
                 angle("beam_width", s.beam_width)
             )
         }
+        desc::LightDesc::Projector(p) => {
+            let irradiance = files.color(
+                "irradiance",
+                p.irradiance.as_ref().unwrap_or(&Color::Rgb(Fixed([1.0; 3]))),
+                "        ",
+            )?;
+            format!(
+                "    <emitter type=\"projector\">\n{}        <float name=\"fov\" value=\"{}\"/>\n        \
+                 <string name=\"fov_axis\" value=\"{}\"/>\n        <float name=\"scale\" value=\"{}\"/>\n{irradiance}    </emitter>\n",
+                lookat_xml(p.position, p.target, p.direction, p.up),
+                p.fov,
+                p.fov_axis.as_deref().unwrap_or("x"),
+                p.scale.unwrap_or(1.0)
+            )
+        }
     })
+}
+
+/// A spot's or a projector's `to_world` as a `lookat` with the loader's frame: the same up
+/// (given, or the loader's default) so that a picture keeps its orientation.
+fn lookat_xml(
+    position: desc::Triple,
+    target: Option<desc::Triple>,
+    direction: Option<desc::Triple>,
+    up: Option<desc::Triple>,
+) -> String {
+    let origin = dvec(position);
+    let target = match (target, direction) {
+        (Some(t), _) => dvec(t),
+        (None, Some(d)) => origin + dvec(d),
+        (None, None) => origin - DVec3::Y,
+    };
+    let axis = (target - origin).normalize_or_zero();
+    let up = match up {
+        Some(u) => dvec(u),
+        None if axis.y.abs() > 0.9 => DVec3::X,
+        None => DVec3::Y,
+    };
+    format!(
+        "        <transform name=\"to_world\">\n            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n        </transform>\n",
+        nums(&origin.to_array()),
+        nums(&target.to_array()),
+        nums(&up.to_array())
+    )
 }
 
 /// A cylinder's axis and radius, Mitsuba's defaults written out, and its `flip_normals`.

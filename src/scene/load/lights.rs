@@ -1,11 +1,13 @@
-//! Point, spot and directional lights: positions within the scene's limits, intensities and
-//! irradiances finite and non-negative, directions non-zero, spot angles ordered.
+//! Point, spot, projector and directional lights: positions within the scene's limits,
+//! intensities and irradiances finite and non-negative, directions non-zero, spot angles
+//! ordered, a projector's field of view in (0°, 180°).
 
 use super::textures::Textures;
 use super::*;
 use crate::error::Result;
 use crate::light::delta::{DeltaLight, Spot};
-use crate::scene::desc::LightDesc;
+use crate::light::projector::Projector;
+use crate::scene::desc::{Color, LightDesc};
 
 /// The largest cutoff half-angle of a spot, in degrees: beyond it the cone is the whole sphere.
 const MAX_SPOT_ANGLE: f64 = 180.0;
@@ -45,22 +47,7 @@ pub(super) fn delta_light(ctx: &Ctx, i: usize, l: &LightDesc, textures: &mut Tex
         },
         LightDesc::Spot(s) => {
             let position = ctx.coords(&field("position"), s.position)?;
-            let axis = match (s.target, s.direction) {
-                (Some(t), None) => {
-                    let t = ctx.coords(&field("target"), t)?;
-                    if (t - position).length() < 1e-12 {
-                        return Err(ctx.err(&field("target"), "expected a point other than the position"));
-                    }
-                    (t - position).normalize().as_vec3()
-                }
-                (None, Some(d)) => direction("direction", d)?,
-                _ => {
-                    return Err(ctx.err(
-                        &field("target"),
-                        "expected exactly one of `target` (a point on the axis) and `direction`",
-                    ));
-                }
-            };
+            let axis = light_axis(ctx, i, position, s.target, s.direction)?;
             let cutoff = s.cutoff_angle.unwrap_or(20.0);
             if !(cutoff > 0.0 && cutoff <= MAX_SPOT_ANGLE) {
                 return Err(ctx.err(
@@ -106,18 +93,106 @@ pub(super) fn delta_light(ctx: &Ctx, i: usize, l: &LightDesc, textures: &mut Tex
                         ));
                     }
                     let picture = textures.picture(ctx, &field("texture"), t)?;
-                    let frame = spot_frame(ctx, &field("up"), spot.axis, s.up)?;
+                    let frame = lookat_frame(ctx, &field("up"), spot.axis, s.up)?;
                     DeltaLight::Spot(spot.with_texture(frame, picture))
                 }
             }
         }
+        LightDesc::Projector(p) => {
+            let position = ctx.coords(&field("position"), p.position)?;
+            let axis = light_axis(ctx, i, position, p.target, p.direction)?;
+            let frame = lookat_frame(ctx, &field("up"), axis, p.up)?;
+            let (irradiance, picture) = match &p.irradiance {
+                None => (glam::Vec3::ONE, None),
+                Some(Color::Rgb(c)) => (power("irradiance", *c)?, None),
+                Some(Color::Texture(t)) => (glam::Vec3::ONE, Some(textures.picture(ctx, &field("irradiance"), t)?)),
+            };
+            let scale = p.scale.unwrap_or(1.0);
+            if !(0.0..=MAX_RADIANCE).contains(&scale) {
+                return Err(ctx.err(
+                    &field("scale"),
+                    format!("expected a number in [0, {}], got {}", num(MAX_RADIANCE), num(scale)),
+                ));
+            }
+            let resolution = match &picture {
+                Some(crate::texture::Texture::Bitmap(b)) => (b.width, b.height),
+                _ => (1, 1),
+            };
+            let tan_half = projector_view(ctx, &field("fov"), p.fov, p.fov_axis.as_deref(), resolution)?;
+            DeltaLight::Projector(Projector::new(
+                position.as_vec3(),
+                frame,
+                tan_half,
+                scale as f32,
+                irradiance,
+                picture,
+            ))
+        }
     })
 }
 
-/// A textured spot's frame (columns x, y, axis) as Mitsuba's `lookat` makes it:
+/// A spot's or a projector's unit axis from exactly one of `target` and `direction`.
+fn light_axis(
+    ctx: &Ctx,
+    i: usize,
+    position: glam::DVec3,
+    target: Option<desc::Triple>,
+    direction: Option<desc::Triple>,
+) -> Result<glam::Vec3> {
+    let field = |name: &str| format!("lights[{i}].{name}");
+    match (target, direction) {
+        (Some(t), None) => {
+            let t = ctx.coords(&field("target"), t)?;
+            if (t - position).length() < 1e-12 {
+                return Err(ctx.err(&field("target"), "expected a point other than the position"));
+            }
+            Ok((t - position).normalize().as_vec3())
+        }
+        (None, Some(d)) => {
+            let d = ctx.coords(&field("direction"), d)?;
+            if d.length() < 1e-12 {
+                return Err(ctx.err(&field("direction"), "expected a non-zero direction, got [0, 0, 0]"));
+            }
+            Ok(d.normalize().as_vec3())
+        }
+        _ => Err(ctx.err(
+            &field("target"),
+            "expected exactly one of `target` (a point on the axis) and `direction`",
+        )),
+    }
+}
+
+/// A projector's image plane at distance 1, (t_x, t_y): `fov` degrees along `axis` of a picture
+/// of `resolution` (Mitsuba's `parse_fov`: "x" by default; "smaller" and "larger" pick by the
+/// aspect ratio W / H), t_y = t_x H / W.
+fn projector_view(ctx: &Ctx, field: &str, fov: f64, axis: Option<&str>, (w, h): (u32, u32)) -> Result<glam::Vec2> {
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(ctx.err(field, format!("expected degrees in (0, 180), got {}", num(fov))));
+    }
+    let aspect = w as f64 / h as f64;
+    let t = (0.5 * fov.to_radians()).tan();
+    let tan_x = match axis.unwrap_or("x") {
+        "x" => t,
+        "y" => t * aspect,
+        "diagonal" => t / (1.0 + 1.0 / (aspect * aspect)).sqrt(),
+        "smaller" if aspect > 1.0 => t * aspect,
+        "smaller" => t,
+        "larger" if aspect > 1.0 => t,
+        "larger" => t * aspect,
+        other => {
+            return Err(ctx.err(
+                &format!("{}_axis", field),
+                format!("expected \"x\", \"y\", \"diagonal\", \"smaller\" or \"larger\", got {other:?}"),
+            ));
+        }
+    };
+    Ok(glam::DVec2::new(tan_x, tan_x / aspect).as_vec2())
+}
+
+/// A pictured spot's or a projector's frame (columns x, y, axis) as Mitsuba's `lookat` makes it:
 /// x = up × axis normalised, y = axis × x; `up` by default +y, or +x within 26° of vertical (the
 /// Mitsuba exporter's choice).
-fn spot_frame(ctx: &Ctx, field: &str, axis: glam::Vec3, up: Option<desc::Triple>) -> Result<glam::Mat3> {
+fn lookat_frame(ctx: &Ctx, field: &str, axis: glam::Vec3, up: Option<desc::Triple>) -> Result<glam::Mat3> {
     use glam::Vec3;
     let up = match up {
         Some(u) => ctx.coords(field, u)?.as_vec3(),
@@ -126,7 +201,7 @@ fn spot_frame(ctx: &Ctx, field: &str, axis: glam::Vec3, up: Option<desc::Triple>
     };
     let x = up.cross(axis);
     if x.length() <= 1e-6 * up.length() {
-        return Err(ctx.err(field, "expected a direction not parallel to the spot's axis"));
+        return Err(ctx.err(field, "expected a direction not parallel to the light's axis"));
     }
     let x = x.normalize();
     Ok(glam::Mat3::from_cols(x, axis.cross(x), axis))

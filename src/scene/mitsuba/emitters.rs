@@ -1,5 +1,6 @@
 //! `<emitter>` elements: `area` emitters (inside shapes or referenced by them), the
-//! environment (`constant`, `envmap`) and the delta lights (`point`, `spot`, `directional`).
+//! environment (`constant`, `envmap`) and the delta lights (`point`, `spot`, `projector`,
+//! `directional`).
 
 use super::*;
 use crate::error::Result;
@@ -64,11 +65,12 @@ impl<'a, 'i> Reader<'a, 'i> {
         })
     }
 
-    /// A top-level `point`, `spot` or `directional` emitter, with Mitsuba's defaults (intensity
-    /// and irradiance 1, cutoff 20°, beam ¾ of the cutoff). Its `to_world` gives a point or a
-    /// spot its position (the translation) and a spot or directional light its direction (the
-    /// image of +z); a spot's must keep angles (rotation, translation, uniform scale), since
-    /// a sheared cone is not a spot.
+    /// A top-level `point`, `spot`, `projector` or `directional` emitter, with Mitsuba's
+    /// defaults (intensity and irradiance 1, cutoff 20°, beam ¾ of the cutoff). Its `to_world`
+    /// gives a point, a spot or a projector its position (the translation) and the others their
+    /// direction (the image of +z) — and a projector or a pictured spot the picture's up (the
+    /// image of +y); a spot's or a projector's must keep angles (rotation, translation, uniform
+    /// scale), since a sheared cone is not a spot.
     pub(super) fn delta_light(&mut self, n: Node<'a, 'i>) -> Result<desc::LightDesc> {
         let kind = self.required(n, "type")?;
         let mut o = self.obj(n)?;
@@ -93,20 +95,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             }
             "spot" => {
                 let linear = DMat3::from_mat4(matrix);
-                let gram = linear.transpose() * linear;
-                let s2 = gram.x_axis.x;
-                if s2 <= 0.0
-                    || (gram - DMat3::IDENTITY * s2)
-                        .to_cols_array()
-                        .iter()
-                        .any(|x| x.abs() > 1e-4 * s2)
-                {
-                    let at = to_world.as_ref().map_or(n, |(t, _)| *t);
-                    return Err(self.err(
-                        at,
-                        "a spot's to_world must be a rotation, a translation and a uniform scale",
-                    ));
-                }
+                self.angle_keeping(n, &to_world, linear, "a spot's")?;
                 let mut intensity = self.unbounded_colour(&mut o, "intensity")?.unwrap_or(Fixed([1.0; 3]));
                 // The projected picture's frame is to_world's: its y axis is the picture's up.
                 let texture = match self.texture_colour(&mut o, "texture")? {
@@ -137,6 +126,38 @@ impl<'a, 'i> Reader<'a, 'i> {
                     texture,
                 })
             }
+            "projector" => {
+                let linear = DMat3::from_mat4(matrix);
+                let uniform_scale = self.angle_keeping(n, &to_world, linear, "a projector's")?;
+                if linear.determinant() < 0.0 {
+                    let at = to_world.as_ref().map_or(n, |(t, _)| *t);
+                    return Err(self.err(at, "a projector's to_world must not mirror"));
+                }
+                if o.props.contains_key("focal_length") {
+                    return Err(self.err(n, "focal_length is not supported; give <float name=\"fov\">"));
+                }
+                let Some(fov) = self.float(&mut o, "fov")? else {
+                    return Err(self.err(n, "expected <float name=\"fov\"> (focal_length is not supported)"));
+                };
+                let irradiance = if o.children.iter().any(|c| c.attribute("name") == Some("irradiance")) {
+                    self.texture_colour(&mut o, "irradiance")?
+                } else {
+                    self.unbounded_colour(&mut o, "irradiance")?.map(desc::Color::Rgb)
+                };
+                // Mitsuba divides by the local z² and multiplies by the length of to_world's
+                // image of +z: a uniform scale s multiplies the intensity by s.
+                let scale = self.float(&mut o, "scale")?.unwrap_or(1.0) * uniform_scale;
+                desc::LightDesc::Projector(desc::ProjectorLightDesc {
+                    position: Fixed(translation.to_array()),
+                    target: None,
+                    direction: Some(Fixed(axis.to_array())),
+                    up: Some(Fixed(matrix.transform_vector3(DVec3::Y).to_array())),
+                    fov,
+                    fov_axis: self.string(&mut o, "fov_axis")?.map(|(_, a)| a),
+                    irradiance,
+                    scale: Some(scale),
+                })
+            }
             _ => {
                 let direction = self.point(&mut o, "direction")?;
                 given("direction", direction, &to_world)?;
@@ -151,5 +172,32 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         self.finish(&o)?;
         Ok(light)
+    }
+
+    /// Checks that `linear` (the linear part of `to_world`) keeps angles — a rotation and a
+    /// uniform scale, possibly mirrored — since a sheared cone or frustum is not the light's;
+    /// returns the scale.
+    fn angle_keeping(
+        &self,
+        n: Node<'a, 'i>,
+        to_world: &Option<(Node<'a, 'i>, DMat4)>,
+        linear: DMat3,
+        whose: &str,
+    ) -> Result<f64> {
+        let gram = linear.transpose() * linear;
+        let s2 = gram.x_axis.x;
+        if s2 <= 0.0
+            || (gram - DMat3::IDENTITY * s2)
+                .to_cols_array()
+                .iter()
+                .any(|x| x.abs() > 1e-4 * s2)
+        {
+            let at = to_world.as_ref().map_or(n, |(t, _)| *t);
+            return Err(self.err(
+                at,
+                format!("{whose} to_world must be a rotation, a translation and a uniform scale"),
+            ));
+        }
+        Ok(s2.sqrt())
     }
 }

@@ -38,7 +38,7 @@
 //! | `bsdf` `twosided` around one reflecting BSDF | that BSDF: our reflection models are two-sided. A bare reflecting BSDF is one-sided in Mitsuba (black from behind), so it is read with a warning |
 //! | a shape without a BSDF | Mitsuba's default, `diffuse` 0.5 (one-sided: warned) |
 //! | `emitter` `area` in a shape: `radiance` | `emission = { radiance, two_sided = false }`: Mitsuba's area lights emit on the front side only, as ours do by default |
-//! | `emitter` `point` (`intensity`, `position` or `to_world`), `spot` (`intensity`, `cutoff_angle`, `beam_width`, `to_world`), `directional` (`irradiance`, `direction` or `to_world`) | `[[lights]]` of the same type, Mitsuba's defaults made explicit where they depend on nothing else |
+//! | `emitter` `point` (`intensity`, `position` or `to_world`), `spot` (`intensity`, `cutoff_angle`, `beam_width`, `texture`, `to_world`), `projector` (`irradiance`: a colour or a picture, `scale`, `fov`, `fov_axis`, `to_world` without shear or mirroring; its uniform scale multiplies `scale`, as in Mitsuba), `directional` (`irradiance`, `direction` or `to_world`) | `[[lights]]` of the same type, Mitsuba's defaults made explicit where they depend on nothing else |
 //! | `emitter` `constant` (`radiance`), `envmap` (`filename`, `scale`, `to_world`) | `[environment]` |
 //!
 //! Colours are `rgb` (three numbers, or one for grey), `float`, or a `spectrum`: one number (a
@@ -379,7 +379,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         {
             return Err(Error::new(format!(
                 "{}: no light: add <emitter type=\"area\"><rgb name=\"radiance\" value=\"…\"/></emitter> with a \
-                 positive channel to a <shape>, or an <emitter type=\"point\">, \"spot\", \"directional\", \"constant\" or \"envmap\"",
+                 positive channel to a <shape>, or an <emitter type=\"point\">, \"spot\", \"projector\", \"directional\", \"constant\" or \"envmap\"",
                 self.file
             )));
         }
@@ -498,14 +498,19 @@ impl<'a, 'i> Reader<'a, 'i> {
                     }
                     parts.environment = Some(self.environment(n)?);
                 }
-                "emitter" if matches!(n.attribute("type"), Some("point" | "spot" | "directional")) => {
+                "emitter"
+                    if matches!(
+                        n.attribute("type"),
+                        Some("point" | "spot" | "projector" | "directional")
+                    ) =>
+                {
                     let light = self.delta_light(n)?;
                     parts.lights.push(light);
                 }
                 "emitter" => {
                     return Err(self.err(
                         n,
-                        "unsupported emitter (photon-bench reads area, point, spot, directional, constant and envmap)",
+                        "unsupported emitter (photon-bench reads area, point, spot, projector, directional, constant and envmap)",
                     ));
                 }
                 other => {
