@@ -817,6 +817,44 @@ fn thin_dielectric_reads_and_round_trips() {
     assert_same_scene(&a, &b, "thin dielectric round trip");
 }
 
+/// A `polarizer` reads as Mitsuba 3.9.1's RGB variants evaluate it (`eval_null_transmission`
+/// and `sample` return ½ transmittance, the direction unchanged): a sheet of index 1, which
+/// never reflects, filtering by ½ transmittance — whatever its angle, with a warning that
+/// polarization is not tracked; a textured transmittance is refused.
+#[test]
+fn a_polarizer_is_a_half_filter_in_rgb() {
+    for theta in [
+        r#"<spectrum name="theta" value="90"/>"#,
+        r#"<float name="theta" value="30"/>"#,
+        r#"<texture type="checkerboard" name="theta"/>"#,
+        "",
+    ] {
+        let body = format!(
+            r#"{LIGHT}<bsdf type="polarizer" id="filter">{theta}<rgb name="transmittance" value="0.8 0.6 1"/></bsdf>
+        <shape type="rectangle"><ref id="filter"/></shape>"#
+        );
+        let (scene, warnings) = load_xml(&scene_xml(&body)).unwrap();
+        assert!(
+            warnings.len() == 1 && warnings[0].contains("polarization is not tracked"),
+            "{warnings:?}"
+        );
+        let filter = scene.materials.iter().find(|m| m.name == "filter").unwrap();
+        let photon_bench::bsdf::Bsdf::ThinDielectric(sheet) = &filter.bsdf else {
+            panic!("{:?}", filter.bsdf);
+        };
+        assert_eq!(sheet.transmittance, Vec3::new(0.4, 0.3, 0.5));
+        for cos in [1.0, 0.5, 0.05] {
+            assert_eq!(sheet.sheet_reflectance(cos), 0.0, "cos θ = {cos}");
+        }
+    }
+    let body = format!(
+        r#"{LIGHT}<bsdf type="polarizer" id="filter"><texture type="checkerboard" name="transmittance"/></bsdf>
+        <shape type="rectangle"><ref id="filter"/></shape>"#
+    );
+    let err = load_xml(&scene_xml(&body)).err().expect("refused").to_string();
+    assert!(err.lines().count() == 1 && err.contains("transmittance"), "{err}");
+}
+
 /// `one_sided` materials survive export and import: written without Mitsuba's `twosided`
 /// wrapper, read back as one-sided; two-sided ones keep the wrapper.
 #[test]

@@ -75,8 +75,12 @@ impl Dielectric {
 ///
 /// `cos_theta_i` ≥ 0 is measured on the incident side and `eta` = η_t / η_i. Returns 1 under
 /// total internal reflection. Fresnel reflectance is the same from both sides of a refracted
-/// pair: F(cos θi, η) = F(cos θt, 1/η).
+/// pair: F(cos θi, η) = F(cos θt, 1/η). An index-matched interface (η = 1) reflects nothing,
+/// exactly, as Mitsuba's `fresnel` makes it (the formula leaves ~1e-13 near grazing angles).
 pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> f32 {
+    if eta == 1.0 {
+        return 0.0;
+    }
     let cos_i = cos_theta_i.clamp(0.0, 1.0);
     let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
     if sin2_t >= 1.0 {

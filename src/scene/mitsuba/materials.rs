@@ -179,6 +179,28 @@ impl<'a, 'i> Reader<'a, 'i> {
                 }
                 MaterialDesc::Dielectric(desc::Dielectric { ior: int_ior / ext_ior })
             }
+            "polarizer" => {
+                // Mitsuba's unpolarized variants (scalar_rgb) read a linear polarizer as a
+                // straight pass-through that absorbs half the light: a thin sheet of index 1
+                // (no reflection) filtering by ½ transmittance. Its angle only turns a
+                // polarization state, which an RGB renderer does not carry.
+                if let Some(i) = o.children.iter().position(|c| c.attribute("name") == Some("theta")) {
+                    o.children.remove(i);
+                } else {
+                    self.unbounded_colour(&mut o, "theta")?;
+                }
+                self.boolean(&mut o, "polarizing")?;
+                let t = self.colour(&mut o, "transmittance")?.unwrap_or(Fixed([1.0; 3]));
+                self.warn(
+                    n,
+                    "a polarizer is read as Mitsuba's RGB variants read it: a neutral filter of ½ transmittance (polarization is not tracked)",
+                );
+                MaterialDesc::ThinDielectric(desc::ThinDielectric {
+                    ior: 1.0,
+                    reflectance: Fixed([1.0; 3]),
+                    transmittance: Fixed(t.0.map(|c| 0.5 * c)),
+                })
+            }
             "thindielectric" => {
                 let int_ior = self.ior(&mut o, "int_ior", 1.5046)?;
                 let ext_ior = self.ior(&mut o, "ext_ior", 1.000277)?;
@@ -195,7 +217,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     n,
                     format!(
                         "unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, \
-                         roughdielectric, thindielectric, plastic, roughplastic, pplastic, twosided, mask, blendbsdf, normalmap, bumpmap)"
+                         roughdielectric, thindielectric, plastic, roughplastic, pplastic, polarizer, twosided, mask, blendbsdf, normalmap, bumpmap)"
                     ),
                 ));
             }

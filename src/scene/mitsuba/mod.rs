@@ -35,6 +35,7 @@
 //! | `bsdf` `roughplastic` (`int_ior` default polypropylene 1.49, `ext_ior`, `diffuse_reflectance` default 0.5, `specular_reflectance`, `nonlinear`, the distribution's fields; isotropic) | `rough_plastic` with `ior = int_ior / ext_ior` |
 //! | `bsdf` `dielectric` (`int_ior`, `ext_ior`: numbers or Mitsuba's named media; defaults bk7 and air) | `dielectric` with `ior = int_ior / ext_ior` |
 //! | `bsdf` `thindielectric` (`int_ior`, `ext_ior`, `specular_reflectance`, `specular_transmittance`) | `thin_dielectric` with `ior = int_ior / ext_ior` and both filters (two-sided, as Mitsuba's) |
+//! | `bsdf` `polarizer` (`transmittance`; `theta`, `polarizing` read and ignored) | as Mitsuba's RGB variants evaluate it: `thin_dielectric` with `ior = 1` (no reflection) and `transmittance` ½ of it, with a warning (polarization is not tracked) |
 //! | `bsdf` `twosided` around one reflecting BSDF | that BSDF: our reflection models are two-sided. A bare reflecting BSDF is one-sided in Mitsuba (black from behind), so it is read with a warning |
 //! | a shape without a BSDF | Mitsuba's default, `diffuse` 0.5 (one-sided: warned) |
 //! | `emitter` `area` in a shape: `radiance` | `emission = { radiance, two_sided = false }`: Mitsuba's area lights emit on the front side only, as ours do by default |
