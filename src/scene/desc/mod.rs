@@ -178,6 +178,10 @@
 //! radius = 0.05                     # > 0, default 1
 //! flip_normals = false              # optional: front side inward
 //! [[shapes]]
+//! type = "linear_curve"             # Mitsuba's linearcurve: round tubes through control points,
+//! material = "white"                #   a sphere at each, cones touching consecutive ones
+//! file = "meshes/hair.txt"          # per line x y z radius; an empty line starts a new curve
+//! [[shapes]]
 //! type = "triangles"                # a mesh written here (pbrt's trianglemesh)
 //! material = "white"
 //! positions = [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]]

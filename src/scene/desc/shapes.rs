@@ -15,6 +15,7 @@ pub enum ShapeDesc {
     Disk(Disk),
     Cylinder(Cylinder),
     Triangles(Triangles),
+    LinearCurve(LinearCurve),
 }
 
 impl ShapeDesc {
@@ -28,6 +29,7 @@ impl ShapeDesc {
             ShapeDesc::Disk(s) => &mut s.transform,
             ShapeDesc::Cylinder(s) => &mut s.transform,
             ShapeDesc::Triangles(s) => &mut s.transform,
+            ShapeDesc::LinearCurve(s) => &mut s.transform,
         }
     }
 }
@@ -135,6 +137,19 @@ pub struct Disk {
     pub emission: Option<EmissionDesc>,
 }
 
+/// Mitsuba 3's `linearcurve`: round tubes through the control points of a text `file` (per
+/// line x y z radius, an empty line between curves): a sphere at each control point and the
+/// cone touching each consecutive pair. `transform` moves the points, not the radii. Loaded as
+/// triangles ([`crate::scene::load`], `curves.rs`); not an emitter.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinearCurve {
+    pub material: String,
+    /// Relative to the directory of the scene file.
+    pub file: String,
+    pub transform: Option<TransformDesc>,
+}
+
 /// Mitsuba 3's `cylinder`: an open tube (no caps) of `radius` around the segment `p0`–`p1`,
 /// front side outward, then `transform`. Loaded as triangles, as [`Disk`].
 #[derive(Clone, Debug, Deserialize)]
@@ -165,6 +180,7 @@ impl ShapeDesc {
             ShapeDesc::Disk(_) => "disk",
             ShapeDesc::Cylinder(_) => "cylinder",
             ShapeDesc::Triangles(_) => "triangles",
+            ShapeDesc::LinearCurve(_) => "linear_curve",
         }
     }
 
@@ -178,6 +194,7 @@ impl ShapeDesc {
             ShapeDesc::Disk(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
             ShapeDesc::Cylinder(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
             ShapeDesc::Triangles(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
+            ShapeDesc::LinearCurve(s) => (&s.material, s.transform.as_ref(), None),
         }
     }
 }

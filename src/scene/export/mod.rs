@@ -263,6 +263,17 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) ->
                 }
                 "cylinder"
             }
+            ShapeDesc::LinearCurve(c) => {
+                let _ = writeln!(
+                    props,
+                    "        <string name=\"filename\" value=\"{}\"/>",
+                    escape(&files.written(&c.file).display().to_string())
+                );
+                if transform.is_some() {
+                    props.push_str(&matrix(t));
+                }
+                "linearcurve"
+            }
             ShapeDesc::Mesh(m) => {
                 let path = scene_dir.join(&m.file);
                 if crate::util::is_gzip(&path) {

@@ -56,10 +56,10 @@ const TESSELLATION_HASH_TAG: &[u8] = b"photon-bench disk and cylinder tessellati
 
 /// A vertex in the shape's own frame: position, shading normal, texture coordinates.
 #[derive(Clone, Copy, Debug)]
-struct Vertex {
-    p: DVec3,
-    n: DVec3,
-    uv: DVec2,
+pub(super) struct Vertex {
+    pub(super) p: DVec3,
+    pub(super) n: DVec3,
+    pub(super) uv: DVec2,
 }
 
 impl Builder<'_> {
@@ -68,7 +68,7 @@ impl Builder<'_> {
     pub(super) fn disk(&mut self, field: &str, d: &desc::Disk, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
         let n = if d.flip_normals { -DVec3::Z } else { DVec3::Z };
         let count = SEGMENTS * (2 * DISK_RINGS + 1);
-        self.reserve_tessellation(field, count)?;
+        self.reserve_tessellation(field, u64::from(count), TESSELLATION_HASH_TAG)?;
         self.tessellated(field, xf, disk_triangles(n), attrs)
     }
 
@@ -93,26 +93,26 @@ impl Builder<'_> {
         }
         let xf = xf.after(cylinder_frame(p0, p1, radius));
         let rings = tube_rings(xf.m.matrix3);
-        self.reserve_tessellation(field, 2 * SEGMENTS * rings)?;
+        self.reserve_tessellation(field, u64::from(2 * SEGMENTS * rings), TESSELLATION_HASH_TAG)?;
         let sign = if c.flip_normals { -1.0 } else { 1.0 };
         self.tessellated(field, &xf, tube_triangles(rings, sign), attrs)
     }
 
     /// Checks that `count` more triangles fit in the memory limit, and marks the scene's hash as
-    /// holding tessellated shapes.
-    fn reserve_tessellation(&mut self, field: &str, count: u32) -> Result<()> {
-        let triangles = self.primitives.len() as u64 + u64::from(count);
+    /// holding shapes tessellated the way `tag` names.
+    pub(super) fn reserve_tessellation(&mut self, field: &str, count: u64, tag: &[u8]) -> Result<()> {
+        let triangles = self.primitives.len() as u64 + count;
         check_memory("the scene's triangles", triangles * BYTES_PER_TRIANGLE, memory_limit()?)
             .map_err(|e| self.ctx.err(field, e))?;
-        if !self.hashed.iter().any(|h| h == TESSELLATION_HASH_TAG) {
-            self.hashed.push(TESSELLATION_HASH_TAG.to_vec());
+        if !self.hashed.iter().any(|h| h == tag) {
+            self.hashed.push(tag.to_vec());
         }
         Ok(())
     }
 
     /// Adds triangles given in the shape's frame (`xf` maps them to the world), skipping and
     /// counting those that collapse in f32; a shape left without any is refused.
-    fn tessellated(
+    pub(super) fn tessellated(
         &mut self,
         field: &str,
         xf: &Xform,

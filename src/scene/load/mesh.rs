@@ -205,6 +205,7 @@ impl Builder<'_> {
             ShapeDesc::Triangles(t) => self.inline_triangles(field, t, &xf, attrs),
             ShapeDesc::Disk(d) => self.disk(field, d, &xf, attrs),
             ShapeDesc::Cylinder(c) => self.cylinder(field, c, &xf, attrs),
+            ShapeDesc::LinearCurve(c) => self.linear_curve(field, c, &xf, attrs),
         }
     }
 

@@ -22,6 +22,7 @@
 //! Mitsuba importer ([`super::mitsuba`]) and anything a renderer does with the scene.
 
 mod curved;
+mod curves;
 pub(crate) use curved::cylinder_frame;
 mod environment;
 mod lights;

@@ -237,6 +237,11 @@ fn the_documented_example_loads() {
     std::fs::create_dir(dir.path().join("meshes")).unwrap();
     let obj = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nf 1 2 3\n";
     std::fs::write(dir.path().join("meshes/bunny.obj"), obj).unwrap();
+    std::fs::write(
+        dir.path().join("meshes/hair.txt"),
+        "0.3 0.1 0.3 0.005\n0.35 0.2 0.3 0.005\n",
+    )
+    .unwrap();
     std::fs::create_dir(dir.path().join("textures")).unwrap();
     let sky = crate::film::Image {
         width: 4,
@@ -273,10 +278,19 @@ fn the_documented_example_loads() {
     assert_eq!(stats.spheres, 1);
     // Two quads (the second with `subdivide = 4`), a box with `subdivide = 2`, a disk (13 rings
     // and a fan of 512 segments), a cylinder twice as long as its radius (⌈2 · 512 / (16 · 2π)⌉
-    // = 11 rings), a triangle from the OBJ file and one written in the scene.
+    // = 11 rings), a triangle from the OBJ file and one written in the scene, and a linear curve
+    // of one segment (radius 0.005, length √0.0125: ⌈0.1118 · 256 / (16 · 2π · 0.005)⌉ = 57
+    // rings of 256 around, two caps of 63 rings and a fan of 256 at the pole).
     assert_eq!(
         stats.triangles,
-        2 + 2 * 4 * 4 + 12 * 2 * 2 + 512 * (2 * 13 + 1) + 2 * 512 * 11 + 1 + 1
+        2 + 2 * 4 * 4
+            + 12 * 2 * 2
+            + 512 * (2 * 13 + 1)
+            + 2 * 512 * 11
+            + 1
+            + 1
+            + 2 * 256 * 57
+            + 2 * (2 * 256 * 63 + 256)
     );
     assert_eq!(scene.user_paths.len(), 1);
     assert!(scene.environment.is_some());

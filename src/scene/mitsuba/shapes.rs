@@ -1,4 +1,5 @@
-//! `<shape>` elements (meshes, rectangles, cubes, spheres, disks, cylinders) and their `area` emitters.
+//! `<shape>` elements (meshes, rectangles, cubes, spheres, disks, cylinders, linear curves) and
+//! their `area` emitters.
 
 use super::*;
 use crate::error::Result;
@@ -137,6 +138,23 @@ impl<'a, 'i> Reader<'a, 'i> {
                     emission,
                 })
             }
+            "linearcurve" => {
+                if emission.is_some() {
+                    return Err(self.err(n, "a linearcurve cannot be an area light here"));
+                }
+                let Some((p, file)) = self.string(&mut o, "filename")? else {
+                    return Err(self.err(n, "expected <string name=\"filename\">"));
+                };
+                let path = self.resolve(&file);
+                if !path.is_file() {
+                    return Err(self.err(p, format!("filename: cannot read {}: no such file", path.display())));
+                }
+                ShapeDesc::LinearCurve(desc::LinearCurve {
+                    material,
+                    file: self.loader_path(p, &file, &path)?,
+                    transform,
+                })
+            }
             "obj" | "ply" | "serialized" => {
                 let Some((p, file)) = self.string(&mut o, "filename")? else {
                     return Err(self.err(n, "expected <string name=\"filename\">"));
@@ -176,7 +194,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 return Err(self.err(
                     n,
                     format!(
-                        "unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere, disk, cylinder)"
+                        "unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, linearcurve)"
                     ),
                 ));
             }
