@@ -232,12 +232,17 @@ fn texture_coordinates_are_mitsubas() {
     assert!(checked > 1000, "{checked}");
 }
 
-/// A room with curves: the strategies that start paths on lights agree with `path`.
+/// A room with linear and B-spline curves (whose open ends let rays into and out of them
+/// through their culled back faces): the strategies that start paths on lights agree with
+/// `path`.
 #[test]
 fn strategies_agree_on_curves() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("zig.txt"), CURVES).unwrap();
-    let text = scene_text().replace("resolution = [24, 24]", "resolution = [12, 12]");
+    std::fs::write(dir.path().join("spline.txt"), CURVES.split("\n\n").next().unwrap()).unwrap();
+    let text = scene_text().replace("resolution = [24, 24]", "resolution = [12, 12]")
+        + "\n[[shapes]]\ntype = \"bspline_curve\"\nmaterial = \"checks\"\nfile = \"spline.txt\"\n\
+           transform = { translate = [0, 0.4, 0.3] }\n";
     let scene = load(dir.path(), "room.toml", &text).unwrap();
     assert_light_starting_strategies_agree(&scene);
 }
@@ -283,10 +288,53 @@ fn curves_are_read_written_and_checked() {
         assert_refused(&e, expect);
     };
     refused("0 0 0 0.1\n1 0 0\n", &["shapes[1].file", "zig.txt", "line 2"]);
-    refused("0 0 0 0.1\n", &["shapes[1].file", "one control point"]);
+    refused("0 0 0 0.1\n", &["shapes[1].file", "1 control point(s)", "at least 2"]);
     refused("0 0 0 0.5\n0.1 0 0 0.1\n", &["shapes[1].file", "holds the other"]);
     refused("0 0 0 0.1\n1 0 0 -1\n", &["shapes[1].file", "positive radius"]);
     std::fs::remove_file(dir.path().join("zig.txt")).unwrap();
     let e = load(dir.path(), "bad.toml", &scene_text()).err().unwrap().to_string();
     assert_refused(&e, &["shapes[1].file", "zig.txt"]);
+}
+
+/// A straight B-spline tube (control points −1.5, −0.5, 0.5, 1.5 on the x axis, radius 0.2):
+/// its one segment runs from x = −0.5 to 0.5 (the uniform cubic B-spline starts at
+/// (P₀ + 4P₁ + P₂)/6), rays from above meet it at distance 5 − 0.2 with v = x + ½ and u = 0 (the
+/// top, e_rad = e_rot × x̂ = +y with e_rot = +z), nothing beyond its ends, and rays along its
+/// axis pass through its open ends and its inside (Embree culls curves' back faces; Mitsuba
+/// 3.9.1's `ray_intersect` on this curve gives exactly these hits and misses).
+#[test]
+fn bspline_tubes_are_open_and_parameterized_as_mitsubas() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("line.txt"),
+        "-1.5 0 0 0.2\n-0.5 0 0 0.2\n0.5 0 0 0.2\n1.5 0 0 0.2\n",
+    )
+    .unwrap();
+    let text = floor_under(LIGHT)
+        + "\n[[shapes]]\ntype = \"bspline_curve\"\nmaterial = \"checks\"\nfile = \"line.txt\"\ntransform = { translate = [0, 1, 0] }\n\n\
+           [materials.checks]\ntype = \"diffuse\"\nreflectance = { type = \"checkerboard\" }\n";
+    let scene = load(dir.path(), "line.toml", &text).unwrap();
+    let curve = curve_material(&scene);
+    for x in [-0.49f32, -0.3, 0.0, 0.2, 0.49] {
+        let hit = scene.intersect(&Ray::new(Vec3::new(x, 6.0, 0.0), -Vec3::Y)).unwrap();
+        assert_eq!(hit.material, curve, "x = {x}");
+        assert!((hit.t - 4.8).abs() < 1e-4, "x = {x}: t = {}", hit.t);
+        let uv = scene.tex_point(&hit).uv;
+        assert!((uv.y - (x + 0.5)).abs() < 2e-3, "x = {x}: v = {}", uv.y);
+        assert!(uv.x.min(1.0 - uv.x) < 2e-3, "x = {x}: u = {}", uv.x);
+        assert!((hit.frame.n - Vec3::Y).length() < 1e-3);
+    }
+    for x in [-0.55f32, 0.55] {
+        let hit = scene.intersect(&Ray::new(Vec3::new(x, 6.0, 0.0), -Vec3::Y)).unwrap();
+        assert_ne!(hit.material, curve, "x = {x}: beyond the segment's end");
+    }
+    for y in [1.0f32, 1.1, 1.19] {
+        for (from, d) in [(Vec3::new(-5.0, y, 0.0), Vec3::X), (Vec3::new(0.0, y, 0.0), -Vec3::X)] {
+            let hit = scene.intersect(&Ray::new(from, d));
+            assert!(
+                hit.is_none_or(|h| h.material != curve),
+                "from {from} along {d}: {hit:?}"
+            );
+        }
+    }
 }

@@ -148,6 +148,10 @@ pub struct PrimAttrs {
     pub emission: Option<Emission>,
     /// Texture coordinates.
     pub uv: UvMap,
+    /// Rays meeting the back of the primitive (its geometric normal facing along them) pass
+    /// through it, as Embree culls the inside of Mitsuba's open B-spline tubes
+    /// ([`Scene::passes_through`]).
+    pub cull_back: bool,
 }
 
 impl PrimAttrs {
@@ -158,6 +162,7 @@ impl PrimAttrs {
             normals: None,
             emission: None,
             uv: UvMap::Barycentric,
+            cull_back: false,
         }
     }
 }
@@ -344,7 +349,7 @@ impl Scene {
             )
         };
         let accel = Accel::build(&primitives);
-        let masked = materials.iter().any(|m| m.opacity.is_some());
+        let masked = materials.iter().any(|m| m.opacity.is_some()) || attrs.iter().any(|a| a.cull_back);
         Ok(Scene {
             params: Vec::new(),
             name,
@@ -413,8 +418,14 @@ impl Scene {
     /// thread count, and a Metropolis chain re-testing an unchanged edge sees what it saw.
     /// Unlike Mitsuba's path tracer, a pass-through is not a bounce (it does not count toward
     /// `max_depth`), as in pbrt.
+    ///
+    /// A primitive that culls its back ([`PrimAttrs::cull_back`]) lets every ray meeting its back
+    /// through, as if it were not there (Embree's and so Mitsuba's curves).
     #[inline]
     pub fn passes_through(&self, hit: &SurfaceHit, d: Vec3) -> bool {
+        if self.attrs[hit.prim as usize].cull_back && hit.ng.dot(d) > 0.0 {
+            return true;
+        }
         let alpha = self.opacity(hit);
         alpha < 1.0 && opacity_sample(hit.p, d) >= alpha
     }

@@ -178,8 +178,8 @@
 //! radius = 0.05                     # > 0, default 1
 //! flip_normals = false              # optional: front side inward
 //! [[shapes]]
-//! type = "linear_curve"             # Mitsuba's linearcurve: round tubes through control points,
-//! material = "white"                #   a sphere at each, cones touching consecutive ones
+//! type = "linear_curve"             # Mitsuba's linearcurve (or bspline_curve): tubes through
+//! material = "white"                #   control points, a sphere at each, touching cones between
 //! file = "meshes/hair.txt"          # per line x y z radius; an empty line starts a new curve
 //! [[shapes]]
 //! type = "triangles"                # a mesh written here (pbrt's trianglemesh)

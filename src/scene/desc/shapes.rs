@@ -15,7 +15,8 @@ pub enum ShapeDesc {
     Disk(Disk),
     Cylinder(Cylinder),
     Triangles(Triangles),
-    LinearCurve(LinearCurve),
+    LinearCurve(Curves),
+    BsplineCurve(Curves),
 }
 
 impl ShapeDesc {
@@ -29,7 +30,7 @@ impl ShapeDesc {
             ShapeDesc::Disk(s) => &mut s.transform,
             ShapeDesc::Cylinder(s) => &mut s.transform,
             ShapeDesc::Triangles(s) => &mut s.transform,
-            ShapeDesc::LinearCurve(s) => &mut s.transform,
+            ShapeDesc::LinearCurve(s) | ShapeDesc::BsplineCurve(s) => &mut s.transform,
         }
     }
 }
@@ -137,13 +138,15 @@ pub struct Disk {
     pub emission: Option<EmissionDesc>,
 }
 
-/// Mitsuba 3's `linearcurve`: round tubes through the control points of a text `file` (per
-/// line x y z radius, an empty line between curves): a sphere at each control point and the
-/// cone touching each consecutive pair. `transform` moves the points, not the radii. Loaded as
-/// triangles ([`crate::scene::load`], `curves.rs`); not an emitter.
+/// Mitsuba 3's `linearcurve` (`linear_curve`: round tubes through the control points, a sphere
+/// at each and the cone touching each consecutive pair) and `bsplinecurve` (`bspline_curve`:
+/// open tubes whose circular cross-section, in the plane normal to a uniform cubic B-spline,
+/// has the B-spline of the radii; four control points per segment), read from a text `file`
+/// (per line x y z radius, an empty line between curves). `transform` moves the points, not
+/// the radii. Loaded as triangles ([`crate::scene::load`], `curves.rs`); not emitters.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct LinearCurve {
+pub struct Curves {
     pub material: String,
     /// Relative to the directory of the scene file.
     pub file: String,
@@ -181,6 +184,7 @@ impl ShapeDesc {
             ShapeDesc::Cylinder(_) => "cylinder",
             ShapeDesc::Triangles(_) => "triangles",
             ShapeDesc::LinearCurve(_) => "linear_curve",
+            ShapeDesc::BsplineCurve(_) => "bspline_curve",
         }
     }
 
@@ -194,7 +198,7 @@ impl ShapeDesc {
             ShapeDesc::Disk(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
             ShapeDesc::Cylinder(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
             ShapeDesc::Triangles(s) => (&s.material, s.transform.as_ref(), s.emission.as_ref()),
-            ShapeDesc::LinearCurve(s) => (&s.material, s.transform.as_ref(), None),
+            ShapeDesc::LinearCurve(s) | ShapeDesc::BsplineCurve(s) => (&s.material, s.transform.as_ref(), None),
         }
     }
 }

@@ -263,7 +263,7 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) ->
                 }
                 "cylinder"
             }
-            ShapeDesc::LinearCurve(c) => {
+            ShapeDesc::LinearCurve(c) | ShapeDesc::BsplineCurve(c) => {
                 let _ = writeln!(
                     props,
                     "        <string name=\"filename\" value=\"{}\"/>",
@@ -272,7 +272,11 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) ->
                 if transform.is_some() {
                     props.push_str(&matrix(t));
                 }
-                "linearcurve"
+                if matches!(shape, ShapeDesc::LinearCurve(_)) {
+                    "linearcurve"
+                } else {
+                    "bsplinecurve"
+                }
             }
             ShapeDesc::Mesh(m) => {
                 let path = scene_dir.join(&m.file);

@@ -1,4 +1,4 @@
-//! Mitsuba 3's `linearcurve` ([`desc::LinearCurve`]) as triangles.
+//! Mitsuba 3's `linearcurve` ([`desc::Curves`]) as triangles.
 //!
 //! **The surface** (Mitsuba 3.9.1's `linearcurve.cpp`, which hands the control points to
 //! Embree's round linear curves): a curve is a chain of control points, each a sphere (centre,
@@ -55,9 +55,10 @@ struct ControlPoint {
 }
 
 /// Mitsuba's curve file: per line four numbers, a control point's x y z and radius; an empty
-/// line starts a new curve; each curve has at least two control points. Returns the curves'
-/// control points as written, or what is wrong (naming the line).
-fn parse_curves(text: &str) -> std::result::Result<Vec<Vec<[f64; 4]>>, String> {
+/// line starts a new curve; each curve has at least `least` control points (2 for linear
+/// curves, 4 for B-splines). Returns the curves' control points as written, or what is wrong
+/// (naming the line).
+fn parse_curves(text: &str, least: usize) -> std::result::Result<Vec<Vec<[f64; 4]>>, String> {
     let mut curves: Vec<Vec<[f64; 4]>> = vec![Vec::new()];
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();
@@ -92,10 +93,11 @@ fn parse_curves(text: &str) -> std::result::Result<Vec<Vec<[f64; 4]>>, String> {
     if curves.is_empty() {
         return Err("no control points".to_string());
     }
-    if let Some(k) = curves.iter().position(|c| c.len() < 2) {
+    if let Some(k) = curves.iter().position(|c| c.len() < least) {
         return Err(format!(
-            "curve {} has one control point; a linear curve needs at least two",
-            k + 1
+            "curve {} has {} control point(s); this kind of curve needs at least {least}",
+            k + 1,
+            curves[k].len()
         ));
     }
     Ok(curves)
@@ -165,22 +167,10 @@ fn local_frame(axis: DVec3) -> (DVec3, DVec3) {
 
 impl Builder<'_> {
     /// A `linearcurve` file under the shape's transform (radii unchanged), tessellated.
-    pub(super) fn linear_curve(
-        &mut self,
-        field: &str,
-        c: &desc::LinearCurve,
-        xf: &Xform,
-        attrs: PrimAttrs,
-    ) -> Result<()> {
+    pub(super) fn linear_curve(&mut self, field: &str, c: &desc::Curves, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
         let ctx = self.ctx;
         let file_field = format!("{field}.file");
-        let path = self.dir.join(&c.file);
-        let shown = path.display().to_string();
-        let bytes =
-            read_regular_file(&path, "curve").map_err(|e| ctx.err(&file_field, format!("cannot read {shown}: {e}")))?;
-        self.stats.files_read.push(path.clone());
-        let text = String::from_utf8(bytes).map_err(|_| ctx.err(&file_field, format!("{shown}: not a text file")))?;
-        let curves = parse_curves(&text).map_err(|e| ctx.err(&file_field, format!("{shown}: {e}")))?;
+        let (curves, shown) = self.curve_file(&file_field, c, 2)?;
         let mut chains = Vec::with_capacity(curves.len());
         for curve in &curves {
             let mut segments = Vec::with_capacity(curve.len() - 1);
@@ -227,12 +217,162 @@ impl Builder<'_> {
                 k += 1.0;
             }
         }
-        let world = Xform {
-            m: DAffine3::IDENTITY,
-            normal_matrix: DMat3::IDENTITY,
-            flips: false,
+        self.tessellated(field, &WORLD, triangles.into_iter(), attrs)
+    }
+
+    /// The curves of `c`'s file (each with at least `least` control points), and the file's
+    /// name as shown in messages.
+    fn curve_file(&mut self, file_field: &str, c: &desc::Curves, least: usize) -> Result<(Vec<Vec<[f64; 4]>>, String)> {
+        let ctx = self.ctx;
+        let path = self.dir.join(&c.file);
+        let shown = path.display().to_string();
+        let bytes =
+            read_regular_file(&path, "curve").map_err(|e| ctx.err(file_field, format!("cannot read {shown}: {e}")))?;
+        self.stats.files_read.push(path.clone());
+        let text = String::from_utf8(bytes).map_err(|_| ctx.err(file_field, format!("{shown}: not a text file")))?;
+        let curves = parse_curves(&text, least).map_err(|e| ctx.err(file_field, format!("{shown}: {e}")))?;
+        Ok((curves, shown))
+    }
+
+    /// A `bsplinecurve` file under the shape's transform (radii unchanged), tessellated as open
+    /// tubes whose back faces let rays through ([`PrimAttrs::cull_back`]).
+    pub(super) fn bspline_curve(&mut self, field: &str, c: &desc::Curves, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
+        let (curves, _) = self.curve_file(&format!("{field}.file"), c, 4)?;
+        let segments: Vec<Bspline> = curves
+            .iter()
+            .flat_map(|curve| {
+                let points: Vec<[f64; 4]> = curve
+                    .iter()
+                    .map(|&[x, y, z, r]| {
+                        let p = xf.point(DVec3::new(x, y, z));
+                        [p.x, p.y, p.z, r]
+                    })
+                    .collect();
+                points
+                    .windows(4)
+                    .map(|w| Bspline([w[0], w[1], w[2], w[3]]))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let rings: Vec<u32> = segments.iter().map(Bspline::rings).collect();
+        let count: u64 = rings.iter().map(|&r| 2 * u64::from(AROUND) * u64::from(r)).sum();
+        self.reserve_tessellation(field, count, CURVE_HASH_TAG)?;
+        let total = segments.len() as f64;
+        let triangles: Vec<[Vertex; 3]> = segments
+            .iter()
+            .zip(&rings)
+            .enumerate()
+            .flat_map(|(k, (s, &r))| s.tube_triangles(r, k as f64, total))
+            .collect();
+        let attrs = PrimAttrs {
+            cull_back: true,
+            ..attrs
         };
-        self.tessellated(field, &world, triangles.into_iter(), attrs)
+        self.tessellated(field, &WORLD, triangles.into_iter(), attrs)
+    }
+}
+
+/// The identity: curves are tessellated in the world.
+const WORLD: Xform = Xform {
+    m: DAffine3::IDENTITY,
+    normal_matrix: DMat3::IDENTITY,
+    flips: false,
+};
+
+/// The most rings along one B-spline segment.
+const MAX_SPLINE_RINGS: u32 = 1024;
+
+/// One segment of a uniform cubic B-spline: four control points (x, y, z, radius) in the world.
+struct Bspline([[f64; 4]; 4]);
+
+/// The centre line and radius of a [`Bspline`] segment at t, with derivatives.
+struct SplinePoint {
+    c: DVec3,
+    dc: DVec3,
+    ddc: DVec3,
+    r: f64,
+    dr: f64,
+}
+
+impl Bspline {
+    /// c(t) = [(1 − t)³ P₀ + (3t³ − 6t² + 4) P₁ + (−3t³ + 3t² + 3t + 1) P₂ + t³ P₃] / 6 and the
+    /// same for the radius (Mitsuba's `cubic_interpolation`), with first and second derivatives.
+    fn at(&self, t: f64) -> SplinePoint {
+        let (t2, t3) = (t * t, t * t * t);
+        let b = [
+            (1.0 - t).powi(3),
+            3.0 * t3 - 6.0 * t2 + 4.0,
+            -3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0,
+            t3,
+        ];
+        let db = [
+            -3.0 * (1.0 - t).powi(2),
+            9.0 * t2 - 12.0 * t,
+            -9.0 * t2 + 6.0 * t + 3.0,
+            3.0 * t2,
+        ];
+        let ddb = [6.0 * (1.0 - t), 18.0 * t - 12.0, -18.0 * t + 6.0, 6.0 * t];
+        let sum = |w: [f64; 4]| {
+            let v = self
+                .0
+                .iter()
+                .zip(w)
+                .fold([0.0; 4], |acc, (p, w)| std::array::from_fn(|i| acc[i] + w * p[i]));
+            v.map(|x| x / 6.0)
+        };
+        let (v, dv, ddv) = (sum(b), sum(db), sum(ddb));
+        SplinePoint {
+            c: DVec3::new(v[0], v[1], v[2]),
+            dc: DVec3::new(dv[0], dv[1], dv[2]),
+            ddc: DVec3::new(ddv[0], ddv[1], ddv[2]),
+            r: v[3],
+            dr: dv[3],
+        }
+    }
+
+    /// Rings along the segment: cells about [`MAX_ASPECT`] times longer than wide, and the
+    /// tangent turning at most π/128 from ring to ring (measured over 256 steps).
+    fn rings(&self) -> u32 {
+        const STEPS: u32 = 256;
+        let (mut length, mut turn, mut r_min) = (0.0, 0.0, f64::INFINITY);
+        let mut prev = self.at(0.0);
+        for i in 1..=STEPS {
+            let next = self.at(f64::from(i) / f64::from(STEPS));
+            length += (next.c - prev.c).length();
+            turn += next.dc.angle_between(prev.dc);
+            r_min = r_min.min(next.r.abs());
+            prev = next;
+        }
+        let width = TAU * r_min.max(1e-9) / f64::from(AROUND);
+        let by_length = length / (MAX_ASPECT * width);
+        let by_turn = turn / (std::f64::consts::PI / 128.0);
+        by_length.max(by_turn).ceil().clamp(1.0, f64::from(MAX_SPLINE_RINGS)) as u32
+    }
+
+    /// The open tube of the segment, the `k`-th of `total`: at t, the circle of radius r(t)
+    /// about c(t) in the plane normal to c'(t), from Mitsuba's `local_frame` (u = 0 along e_rad);
+    /// the normal Mitsuba's, (|c'|² − ρ · c'') ρ − r r' c' for ρ the point's offset from c(t).
+    fn tube_triangles(&self, rings: u32, k: f64, total: f64) -> Vec<[Vertex; 3]> {
+        let frames: Vec<(SplinePoint, DVec3, DVec3)> = (0..=rings)
+            .map(|i| {
+                let s = self.at(f64::from(i) / f64::from(rings));
+                let (e_rot, e_rad) = local_frame(s.dc.normalize());
+                (s, e_rot, e_rad)
+            })
+            .collect();
+        let at = |j: u32, ring: u32| {
+            let (s, e_rot, e_rad) = &frames[ring as usize];
+            let u = f64::from(j) / f64::from(AROUND);
+            let phi = TAU * u;
+            let rho = s.r * (phi.cos() * *e_rad + phi.sin() * *e_rot);
+            let n = ((s.dc.length_squared() - rho.dot(s.ddc)) * rho - s.r * s.dr * s.dc).normalize();
+            Vertex {
+                p: s.c + rho,
+                n,
+                uv: DVec2::new(u, (f64::from(ring) / f64::from(rings) + k) / total),
+            }
+        };
+        grid(AROUND, rings, at)
     }
 }
 
@@ -308,18 +448,23 @@ mod tests {
 
     #[test]
     fn curve_files_are_read_as_mitsuba_writes_them() {
-        let curves = parse_curves("-1 0 0 0.5\n 1 1 1 0.5\n\n\n-1 5 2 1\n-2 4 2 2\n4 1 2 5\n").unwrap();
+        let curves = parse_curves("-1 0 0 0.5\n 1 1 1 0.5\n\n\n-1 5 2 1\n-2 4 2 2\n4 1 2 5\n", 2).unwrap();
+        assert!(
+            parse_curves("-1 0 0 0.5\n 1 1 1 0.5\n2 2 2 1\n", 4)
+                .unwrap_err()
+                .contains("at least 4")
+        );
         assert_eq!(curves.len(), 2);
         assert_eq!(curves[0], vec![[-1.0, 0.0, 0.0, 0.5], [1.0, 1.0, 1.0, 0.5]]);
         assert_eq!(curves[1].len(), 3);
         for (text, expect) in [
             ("1 2 3\n4 5 6 1\n", "line 1"),
             ("1 2 3 x\n", "line 1"),
-            ("1 2 3 1\n", "one control point"),
+            ("1 2 3 1\n", "at least 2"),
             ("1 2 3 1\n4 5 6 0\n", "positive radius"),
             ("", "no control points"),
         ] {
-            let e = parse_curves(text).unwrap_err();
+            let e = parse_curves(text, 2).unwrap_err();
             assert!(e.contains(expect), "{text:?}: {e}");
         }
     }
@@ -356,6 +501,41 @@ mod tests {
                 // Caps lie beyond their circle of contact.
                 let side = (t.n.dot(s.axis) - s.sin) * if end { 1.0 } else { -1.0 };
                 assert!(side >= -1e-12, "{end}: {:?}", t.n);
+            }
+        }
+    }
+
+    /// A bent B-spline segment whose radius changes: every vertex lies on the circle of radius
+    /// r(t) about c(t) in the plane normal to c'(t) (t read back from v), and its normal is
+    /// perpendicular to the surface along both parameters (finite differences of the sweep).
+    #[test]
+    fn bspline_vertices_lie_on_the_sweep_with_its_normals() {
+        let s = Bspline([
+            [0.0, 0.0, 0.0, 0.05],
+            [1.0, 0.5, 0.2, 0.1],
+            [1.5, -0.5, 0.8, 0.15],
+            [2.5, 0.0, 1.0, 0.08],
+        ]);
+        let rings = s.rings();
+        assert!(rings > 16, "{rings}");
+        let sweep = |t: f64, phi: f64| {
+            let q = s.at(t);
+            let (e_rot, e_rad) = local_frame(q.dc.normalize());
+            q.c + q.r * (phi.cos() * e_rad + phi.sin() * e_rot)
+        };
+        for v in s.tube_triangles(rings, 3.0, 7.0).iter().flatten() {
+            let t = 7.0 * v.uv.y - 3.0;
+            let q = s.at(t);
+            let rho = v.p - q.c;
+            assert!((rho.length() - q.r).abs() < 1e-9 && rho.dot(q.dc).abs() < 1e-9 * q.dc.length());
+            let phi = TAU * v.uv.x;
+            assert!((sweep(t, phi) - v.p).length() < 1e-9);
+            let h = 1e-5;
+            for tangent in [
+                sweep((t + h).min(1.0), phi) - sweep((t - h).max(0.0), phi),
+                sweep(t, phi + h) - sweep(t, phi - h),
+            ] {
+                assert!(v.n.dot(tangent.normalize()).abs() < 1e-4, "n {} along {}", v.n, tangent);
             }
         }
     }

@@ -206,6 +206,7 @@ impl Builder<'_> {
             ShapeDesc::Disk(d) => self.disk(field, d, &xf, attrs),
             ShapeDesc::Cylinder(c) => self.cylinder(field, c, &xf, attrs),
             ShapeDesc::LinearCurve(c) => self.linear_curve(field, c, &xf, attrs),
+            ShapeDesc::BsplineCurve(c) => self.bspline_curve(field, c, &xf, attrs),
         }
     }
 

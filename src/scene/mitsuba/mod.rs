@@ -26,6 +26,7 @@
 //! | `shape` `sphere`: `center` (default 0), `radius` (default 1), `to_world` | `sphere` with the same fields (Mitsuba applies `to_world` after centre and radius, as we do) |
 //! | `shape` `disk`: `flip_normals`, `to_world` | `disk` (the unit disk, front +z; a non-uniform scale makes an ellipse), tessellated with Mitsuba's normal and (u, v) at every vertex |
 //! | `shape` `linearcurve`: `filename`, `to_world` (moves the points, not the radii) | `linear_curve` with the same file, tessellated (a sphere per control point, touching cones between; Mitsuba's (u, v)); not as an emitter |
+//! | `shape` `bsplinecurve`: `filename`, `to_world` | `bspline_curve`: open tubes about cubic B-splines, tessellated, back faces culled as Embree culls them; not as an emitter |
 //! | `shape` `cylinder`: `p0`, `p1`, `radius` (defaults 0, (0, 0, 1), 1), `flip_normals`, `to_world` | `cylinder` with the same fields (Mitsuba's frame about the axis, so its (u, v)), tessellated likewise; a radius ≤ 0 or p0 = p1 is refused, an emitting tube made elliptic or sheared by `to_world` warned about (Mitsuba samples its light as a round one's) |
 //! | `shape` `obj`: `filename`, `face_normals`, `to_world` | `mesh`; `face_normals = true` ignores the file's normals |
 //! | `bsdf` `diffuse` (`reflectance`, default 0.5) | `diffuse` |

@@ -1,4 +1,4 @@
-//! `<shape>` elements (meshes, rectangles, cubes, spheres, disks, cylinders, linear curves) and
+//! `<shape>` elements (meshes, rectangles, cubes, spheres, disks, cylinders, curves) and
 //! their `area` emitters.
 
 use super::*;
@@ -138,9 +138,9 @@ impl<'a, 'i> Reader<'a, 'i> {
                     emission,
                 })
             }
-            "linearcurve" => {
+            "linearcurve" | "bsplinecurve" => {
                 if emission.is_some() {
-                    return Err(self.err(n, "a linearcurve cannot be an area light here"));
+                    return Err(self.err(n, format!("a {kind} cannot be an area light here")));
                 }
                 let Some((p, file)) = self.string(&mut o, "filename")? else {
                     return Err(self.err(n, "expected <string name=\"filename\">"));
@@ -149,11 +149,16 @@ impl<'a, 'i> Reader<'a, 'i> {
                 if !path.is_file() {
                     return Err(self.err(p, format!("filename: cannot read {}: no such file", path.display())));
                 }
-                ShapeDesc::LinearCurve(desc::LinearCurve {
+                let curves = desc::Curves {
                     material,
                     file: self.loader_path(p, &file, &path)?,
                     transform,
-                })
+                };
+                if kind == "linearcurve" {
+                    ShapeDesc::LinearCurve(curves)
+                } else {
+                    ShapeDesc::BsplineCurve(curves)
+                }
             }
             "obj" | "ply" | "serialized" => {
                 let Some((p, file)) = self.string(&mut o, "filename")? else {
@@ -194,7 +199,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 return Err(self.err(
                     n,
                     format!(
-                        "unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, linearcurve)"
+                        "unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, linearcurve, bsplinecurve)"
                     ),
                 ));
             }
