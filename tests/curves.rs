@@ -107,6 +107,15 @@ fn segments() -> Vec<Segment> {
         .collect()
 }
 
+/// The scene of two curves (its directory kept alive) and the index of the curves' material.
+fn curve_scene() -> (tempfile::TempDir, photon_bench::scene::Scene, u32) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("zig.txt"), CURVES).unwrap();
+    let scene = load(dir.path(), "curves.toml", &scene_text()).unwrap();
+    let curve = curve_material(&scene);
+    (dir, scene, curve)
+}
+
 /// The index of the curves' material.
 fn curve_material(scene: &photon_bench::scene::Scene) -> u32 {
     scene.materials.iter().position(|m| m.name == "checks").unwrap() as u32
@@ -122,10 +131,7 @@ fn union_distance(segments: &[Segment], p: DVec3) -> f64 {
 /// before it is inside the union, and a ray that misses never passes inside it.
 #[test]
 fn the_tube_is_the_union_of_spheres_and_touching_cones() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("zig.txt"), CURVES).unwrap();
-    let scene = load(dir.path(), "curves.toml", &scene_text()).unwrap();
-    let curve = curve_material(&scene);
+    let (_dir, scene, curve) = curve_scene();
     let segs = segments();
     let curve_points: Vec<DVec3> = world_curves().concat().iter().map(|c| c.0).collect();
     let mut rng = Rng::for_task(3, [0, 0, 0]);
@@ -185,10 +191,7 @@ fn the_tube_is_the_union_of_spheres_and_touching_cones() {
 /// axis and e_rad = e_rot × axis (checked away from the seam and the joints).
 #[test]
 fn texture_coordinates_are_mitsubas() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("zig.txt"), CURVES).unwrap();
-    let scene = load(dir.path(), "curves.toml", &scene_text()).unwrap();
-    let curve = curve_material(&scene);
+    let (_dir, scene, curve) = curve_scene();
     let segs = segments();
     let n = segs.len() as f64;
     let mut rng = Rng::for_task(5, [0, 0, 0]);
@@ -336,6 +339,9 @@ fn bspline_tubes_are_open_and_parameterized_as_mitsubas() {
         (Vec3::new(0.0, 1.05, 0.05), Vec3::new(-0.2, 0.0, -0.3)),
     ] {
         let hit = scene.intersect(&Ray::new(from, (to - from).normalize()));
-        assert!(hit.is_none_or(|h| h.material != curve), "from {from} toward {to}: {hit:?}");
+        assert!(
+            hit.is_none_or(|h| h.material != curve),
+            "from {from} toward {to}: {hit:?}"
+        );
     }
 }

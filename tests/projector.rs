@@ -5,9 +5,10 @@
 mod agreement;
 
 use agreement::{
-    assert_light_starting_strategies_agree, assert_refused, floor_under, load_text as load, render_image as render,
+    assert_light_starting_strategies_agree, assert_refused, floor_point, floor_under, load_text as load,
+    render_image as render, room_under, write_png,
 };
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// A projector 1.5 above the floor looking down, the picture's up +z (frame x = up × axis =
 /// +x, the picture's left; y = +z), a 30° view along the picture's height.
@@ -22,19 +23,7 @@ const TEXELS: [[[u8; 3]; 4]; 2] = [
 ];
 
 fn write_picture(dir: &std::path::Path) {
-    let mut img = image::RgbImage::new(4, 2);
-    for (r, row) in TEXELS.iter().enumerate() {
-        for (c, t) in row.iter().enumerate() {
-            img.put_pixel(c as u32, r as u32, image::Rgb(*t));
-        }
-    }
-    img.save(dir.join("strip.png")).unwrap();
-}
-
-/// The floor point a pixel's centre sees.
-fn floor_point(scene: &photon_bench::scene::Scene, x: u32, y: u32) -> Vec3 {
-    let ray = scene.camera.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-    ray.o + ray.d * (-ray.o.y / ray.d.y)
+    write_png(&dir.join("strip.png"), &TEXELS);
 }
 
 /// A floor facing the projector at distance h receives π s E / h² wherever the picture
@@ -93,8 +82,7 @@ fn strategies_agree_under_a_projector() {
     let dir = tempfile::tempdir().unwrap();
     write_picture(dir.path());
     let projector = PROJECTOR.replace("filter = \"nearest\", ", "");
-    let room = floor_under(&projector).replace("resolution = [24, 24]", "resolution = [12, 12]")
-        + "\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"grey\"\ncenter = [0.3, 0.3, 0.2]\nradius = 0.3\n";
+    let room = room_under(&projector);
     let scene = load(dir.path(), "room.toml", &room).unwrap();
     assert_light_starting_strategies_agree(&scene);
 }

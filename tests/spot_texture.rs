@@ -5,9 +5,10 @@
 mod agreement;
 
 use agreement::{
-    assert_light_starting_strategies_agree, assert_refused, floor_under, load_text as load, render_image as render,
+    assert_light_starting_strategies_agree, assert_refused, floor_point, floor_under, load_text as load,
+    render_image as render, room_under, write_png,
 };
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
 /// A spot 1.5 above the floor pointing down, its picture `quadrants.png` (frame x = up × axis
@@ -22,19 +23,7 @@ const TEXELS: [[[u8; 3]; 2]; 2] = [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [25
 
 /// Writes `quadrants.png` into `dir`.
 fn write_picture(dir: &std::path::Path) {
-    let mut img = image::RgbImage::new(2, 2);
-    for (r, row) in TEXELS.iter().enumerate() {
-        for (c, t) in row.iter().enumerate() {
-            img.put_pixel(c as u32, r as u32, image::Rgb(*t));
-        }
-    }
-    img.save(dir.join("quadrants.png")).unwrap();
-}
-
-/// The floor point a pixel's centre sees.
-fn floor_point(scene: &photon_bench::scene::Scene, x: u32, y: u32) -> Vec3 {
-    let ray = scene.camera.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-    ray.o + ray.d * (-ray.o.y / ray.d.y)
+    write_png(&dir.join("quadrants.png"), &TEXELS);
 }
 
 /// Under the pictured spot a diffuse floor reflects ρ/π · I T(u, v) cos θ / r², T the
@@ -85,8 +74,7 @@ fn a_floor_shows_the_spots_picture_in_its_frame() {
 fn strategies_agree_under_a_pictured_spot() {
     let dir = tempfile::tempdir().unwrap();
     write_picture(dir.path());
-    let room = floor_under(SPOT).replace("resolution = [24, 24]", "resolution = [12, 12]")
-        + "\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"grey\"\ncenter = [0.3, 0.3, 0.2]\nradius = 0.3\n";
+    let room = room_under(SPOT);
     let scene = load(dir.path(), "room.toml", &room).unwrap();
     assert_light_starting_strategies_agree(&scene);
 }

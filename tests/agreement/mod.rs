@@ -218,3 +218,32 @@ facing = "+y"
 "#
     )
 }
+
+#[allow(dead_code)]
+/// Writes an 8-bit RGB PNG of `rows` (row 0 the top) to `path`.
+pub fn write_png<const W: usize>(path: &Path, rows: &[[[u8; 3]; W]]) {
+    let mut img = image::RgbImage::new(W as u32, rows.len() as u32);
+    for (r, row) in rows.iter().enumerate() {
+        for (c, t) in row.iter().enumerate() {
+            img.put_pixel(c as u32, r as u32, image::Rgb(*t));
+        }
+    }
+    img.save(path).unwrap();
+}
+
+#[allow(dead_code)]
+/// The point of the floor y = 0 that the centre of pixel (x, y) sees.
+pub fn floor_point(scene: &Scene, x: u32, y: u32) -> glam::Vec3 {
+    let ray = scene
+        .camera
+        .generate_ray(glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+    ray.o + ray.d * (-ray.o.y / ray.d.y)
+}
+
+#[allow(dead_code)]
+/// [`floor_under`] at 12 × 12 pixels with a grey ball on the floor: a room whose light reaches
+/// the camera by several bounces, for comparing strategies.
+pub fn room_under(light: &str) -> String {
+    floor_under(light).replace("resolution = [24, 24]", "resolution = [12, 12]")
+        + "\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"grey\"\ncenter = [0.3, 0.3, 0.2]\nradius = 0.3\n"
+}
