@@ -20,7 +20,7 @@
 //! - `directional`: irradiance E [W/m²] on a surface facing the light, arriving along one
 //!   direction; the power that reaches a scene of bounding radius R is π R² E.
 //!
-//! Photons (and light sub-paths) leave a point or a spot at its position: a point in a
+//! Photons (and light sub-paths) leave a point, a spot or a projector at its position: a point in a
 //! uniformly distributed direction, a spot uniformly inside its cutoff cone (Mitsuba's
 //! `sample_ray`), each carrying intensity × falloff / density; a projector's where its picture is
 //! bright ([`super::picture`]). Directional photons start on a
@@ -249,7 +249,7 @@ pub struct DeltaEmission {
     pub origin: Vec3,
     pub dir: Vec3,
     pub power: Vec3,
-    /// Solid-angle density of `dir` at the light (points and spots; 0 for directional light,
+    /// Solid-angle density of `dir` at the light (points, spots and projectors; 0 for directional light,
     /// whose direction is fixed and whose origin has area density 1 / π R²).
     pub pdf_dir: f32,
 }
@@ -302,13 +302,13 @@ impl DeltaLight {
         (s.li.max_element() > 0.0).then_some(s)
     }
 
-    /// Whether the light sits at a point (a point or a spot) rather than infinitely far away.
+    /// Whether the light sits at a point (a point, a spot or a projector) rather than infinitely far away.
     #[inline]
     pub fn is_positional(&self) -> bool {
         !matches!(self, DeltaLight::Directional { .. })
     }
 
-    /// The light's position (points and spots; `None` for directional light).
+    /// The light's position (points, spots and projectors; `None` for directional light).
     #[inline]
     pub fn position(&self) -> Option<Vec3> {
         match *self {
@@ -319,7 +319,7 @@ impl DeltaLight {
         }
     }
 
-    /// Radiant intensity I f(ω) leaving a point or a spot in unit world direction `w` (zero
+    /// Radiant intensity I f(ω) leaving a point, a spot or a projector in unit world direction `w` (zero
     /// for directional light, which has no intensity).
     #[inline]
     pub fn intensity(&self, w: Vec3) -> Vec3 {
