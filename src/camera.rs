@@ -347,6 +347,24 @@ impl Camera {
     }
 }
 
+/// The half-extents (t_x, t_y) of the image plane at distance 1 of a `width` × `height` view
+/// whose field of view is `fov_deg` degrees along `axis`, as Mitsuba's `parse_fov` reads
+/// `fov_axis` ("x", "y", "diagonal", or "smaller"/"larger" of the two sides); `None` for any
+/// other axis. Shared by the perspective sensor and the projector emitter.
+pub fn fov_half_extents(fov_deg: f64, axis: &str, (width, height): (u32, u32)) -> Option<glam::DVec2> {
+    let (w, h) = (f64::from(width), f64::from(height));
+    let t = (0.5 * fov_deg.to_radians()).tan();
+    let tan_y = match axis {
+        "x" => t * h / w,
+        "y" => t,
+        "diagonal" => t * h / (w * w + h * h).sqrt(),
+        "smaller" | "larger" if (width < height) == (axis == "smaller") => t * h / w,
+        "smaller" | "larger" => t,
+        _ => return None,
+    };
+    Some(glam::DVec2::new(tan_y * w / h, tan_y))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -43,9 +43,8 @@ const CAP_RINGS: u32 = 64;
 /// About the largest ratio of a cone cell's length to its width, and the most rings along one.
 const MAX_ASPECT: f64 = 16.0;
 const MAX_CONE_RINGS: u32 = 128;
-/// Enters the content hash of every scene with a linear curve (bump it when the tessellation
-/// changes).
-const CURVE_HASH_TAG: &[u8] = b"photon-bench linear curve tessellation v1";
+/// Enters the content hash of every scene with a curve (bump it when a tessellation changes).
+const CURVE_HASH_TAG: &[u8] = b"photon-bench curve tessellation v1";
 
 /// A control point: the centre of a sphere (in the world) and its radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -170,15 +169,12 @@ impl Builder<'_> {
     pub(super) fn linear_curve(&mut self, field: &str, c: &desc::Curves, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
         let ctx = self.ctx;
         let file_field = format!("{field}.file");
-        let (curves, shown) = self.curve_file(&file_field, c, 2)?;
+        let (curves, shown) = self.curve_file(&file_field, c, xf, 2)?;
         let mut chains = Vec::with_capacity(curves.len());
         for curve in &curves {
             let mut segments = Vec::with_capacity(curve.len() - 1);
             for pair in curve.windows(2) {
-                let [a, b] = [pair[0], pair[1]].map(|[x, y, z, r]| ControlPoint {
-                    p: xf.point(DVec3::new(x, y, z)),
-                    r,
-                });
+                let (a, b) = (pair[0], pair[1]);
                 let Some(s) = Segment::new(a, b) else {
                     return Err(ctx.err(
                         &file_field,
@@ -220,9 +216,15 @@ impl Builder<'_> {
         self.tessellated(field, &WORLD, triangles.into_iter(), attrs)
     }
 
-    /// The curves of `c`'s file (each with at least `least` control points), and the file's
-    /// name as shown in messages.
-    fn curve_file(&mut self, file_field: &str, c: &desc::Curves, least: usize) -> Result<(Vec<Vec<[f64; 4]>>, String)> {
+    /// The curves of `c`'s file (each with at least `least` control points), their points moved
+    /// by `xf` (their radii not), and the file's name as shown in messages.
+    fn curve_file(
+        &mut self,
+        file_field: &str,
+        c: &desc::Curves,
+        xf: &Xform,
+        least: usize,
+    ) -> Result<(Vec<Vec<ControlPoint>>, String)> {
         let ctx = self.ctx;
         let path = self.dir.join(&c.file);
         let shown = path.display().to_string();
@@ -231,28 +233,20 @@ impl Builder<'_> {
         self.stats.files_read.push(path.clone());
         let text = String::from_utf8(bytes).map_err(|_| ctx.err(file_field, format!("{shown}: not a text file")))?;
         let curves = parse_curves(&text, least).map_err(|e| ctx.err(file_field, format!("{shown}: {e}")))?;
-        Ok((curves, shown))
+        let world = |&[x, y, z, r]: &[f64; 4]| ControlPoint {
+            p: xf.point(DVec3::new(x, y, z)),
+            r,
+        };
+        Ok((curves.iter().map(|c| c.iter().map(world).collect()).collect(), shown))
     }
 
     /// A `bsplinecurve` file under the shape's transform (radii unchanged), tessellated as open
     /// tubes whose back faces let rays through ([`PrimAttrs::cull_back`]).
     pub(super) fn bspline_curve(&mut self, field: &str, c: &desc::Curves, xf: &Xform, attrs: PrimAttrs) -> Result<()> {
-        let (curves, _) = self.curve_file(&format!("{field}.file"), c, 4)?;
+        let (curves, _) = self.curve_file(&format!("{field}.file"), c, xf, 4)?;
         let segments: Vec<Bspline> = curves
             .iter()
-            .flat_map(|curve| {
-                let points: Vec<[f64; 4]> = curve
-                    .iter()
-                    .map(|&[x, y, z, r]| {
-                        let p = xf.point(DVec3::new(x, y, z));
-                        [p.x, p.y, p.z, r]
-                    })
-                    .collect();
-                points
-                    .windows(4)
-                    .map(|w| Bspline([w[0], w[1], w[2], w[3]]))
-                    .collect::<Vec<_>>()
-            })
+            .flat_map(|curve| curve.windows(4).map(|w| Bspline([w[0], w[1], w[2], w[3]])))
             .collect();
         let rings: Vec<u32> = segments.iter().map(Bspline::rings).collect();
         let count: u64 = rings.iter().map(|&r| 2 * u64::from(AROUND) * u64::from(r)).sum();
@@ -282,8 +276,8 @@ const WORLD: Xform = Xform {
 /// The most rings along one B-spline segment.
 const MAX_SPLINE_RINGS: u32 = 1024;
 
-/// One segment of a uniform cubic B-spline: four control points (x, y, z, radius) in the world.
-struct Bspline([[f64; 4]; 4]);
+/// One segment of a uniform cubic B-spline: four control points in the world.
+struct Bspline([ControlPoint; 4]);
 
 /// The centre line and radius of a [`Bspline`] segment at t, with derivatives.
 struct SplinePoint {
@@ -312,21 +306,14 @@ impl Bspline {
             3.0 * t2,
         ];
         let ddb = [6.0 * (1.0 - t), 18.0 * t - 12.0, -18.0 * t + 6.0, 6.0 * t];
-        let sum = |w: [f64; 4]| {
-            let v = self
-                .0
-                .iter()
-                .zip(w)
-                .fold([0.0; 4], |acc, (p, w)| std::array::from_fn(|i| acc[i] + w * p[i]));
-            v.map(|x| x / 6.0)
-        };
-        let (v, dv, ddv) = (sum(b), sum(db), sum(ddb));
+        let point = |w: [f64; 4]| self.0.iter().zip(w).fold(DVec3::ZERO, |acc, (q, w)| acc + w * q.p) / 6.0;
+        let radius = |w: [f64; 4]| self.0.iter().zip(w).map(|(q, w)| w * q.r).sum::<f64>() / 6.0;
         SplinePoint {
-            c: DVec3::new(v[0], v[1], v[2]),
-            dc: DVec3::new(dv[0], dv[1], dv[2]),
-            ddc: DVec3::new(ddv[0], ddv[1], ddv[2]),
-            r: v[3],
-            dr: dv[3],
+            c: point(b),
+            dc: point(db),
+            ddc: point(ddb),
+            r: radius(b),
+            dr: radius(db),
         }
     }
 
@@ -510,12 +497,18 @@ mod tests {
     /// perpendicular to the surface along both parameters (finite differences of the sweep).
     #[test]
     fn bspline_vertices_lie_on_the_sweep_with_its_normals() {
-        let s = Bspline([
-            [0.0, 0.0, 0.0, 0.05],
-            [1.0, 0.5, 0.2, 0.1],
-            [1.5, -0.5, 0.8, 0.15],
-            [2.5, 0.0, 1.0, 0.08],
-        ]);
+        let s = Bspline(
+            [
+                [0.0, 0.0, 0.0, 0.05],
+                [1.0, 0.5, 0.2, 0.1],
+                [1.5, -0.5, 0.8, 0.15],
+                [2.5, 0.0, 1.0, 0.08],
+            ]
+            .map(|[x, y, z, r]| ControlPoint {
+                p: DVec3::new(x, y, z),
+                r,
+            }),
+        );
         let rings = s.rings();
         assert!(rings > 16, "{rings}");
         let sweep = |t: f64, phi: f64| {

@@ -169,24 +169,14 @@ fn projector_view(ctx: &Ctx, field: &str, fov: f64, axis: Option<&str>, (w, h): 
     if !(fov > 0.0 && fov < 180.0) {
         return Err(ctx.err(field, format!("expected degrees in (0, 180), got {}", num(fov))));
     }
-    let aspect = w as f64 / h as f64;
-    let t = (0.5 * fov.to_radians()).tan();
-    let tan_x = match axis.unwrap_or("x") {
-        "x" => t,
-        "y" => t * aspect,
-        "diagonal" => t / (1.0 + 1.0 / (aspect * aspect)).sqrt(),
-        "smaller" if aspect > 1.0 => t * aspect,
-        "smaller" => t,
-        "larger" if aspect > 1.0 => t,
-        "larger" => t * aspect,
-        other => {
-            return Err(ctx.err(
-                &format!("{}_axis", field),
-                format!("expected \"x\", \"y\", \"diagonal\", \"smaller\" or \"larger\", got {other:?}"),
-            ));
-        }
+    let axis = axis.unwrap_or("x");
+    let Some(half) = crate::camera::fov_half_extents(fov, axis, (w, h)) else {
+        return Err(ctx.err(
+            &format!("{field}_axis"),
+            format!("expected \"x\", \"y\", \"diagonal\", \"smaller\" or \"larger\", got {axis:?}"),
+        ));
     };
-    Ok(glam::DVec2::new(tan_x, tan_x / aspect).as_vec2())
+    Ok(half.as_vec2())
 }
 
 /// A pictured spot's or a projector's frame (columns x, y, axis) as Mitsuba's `lookat` makes it:

@@ -122,22 +122,13 @@ impl<'a, 'i> Reader<'a, 'i> {
         // x) mirrors the image.
         let flip_x = DMat3::from_cols(left, up, fwd).determinant() < 0.0;
         let (wf, hf) = (w as f64, h as f64);
-        let t = (0.5 * fov.to_radians()).tan();
-        let half_h = match axis.as_str() {
-            "x" => t * hf / wf,
-            "y" => t,
-            "diagonal" => t * hf / (wf * wf + hf * hf).sqrt(),
-            "smaller" if w < h => t * hf / wf,
-            "smaller" => t,
-            "larger" if w > h => t * hf / wf,
-            "larger" => t,
-            other => {
-                return Err(self.err(
-                    n,
-                    format!("fov_axis: expected x, y, diagonal, smaller or larger, got {other:?}"),
-                ));
-            }
+        let Some(half) = crate::camera::fov_half_extents(fov, &axis, (w, h)) else {
+            return Err(self.err(
+                n,
+                format!("fov_axis: expected x, y, diagonal, smaller or larger, got {axis:?}"),
+            ));
         };
+        let half_h = half.y;
         let lens = if orthographic {
             Some(desc::LensDesc::Orthographic(desc::OrthographicDesc {
                 height: 2.0 * extent.1 * hf / wf,
