@@ -43,7 +43,7 @@ import time
 
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from crosscheck_mitsuba import judge, render_mitsuba, render_ours  # noqa: E402
+from crosscheck_mitsuba import has_media, judge, render_mitsuba, render_ours  # noqa: E402
 
 
 def resize_films(text, longest, rfilter="keep"):
@@ -232,7 +232,8 @@ def main():
                 print(f"{name}: Mitsuba refused: {row['reason']}", flush=True)
                 continue
             t0 = time.perf_counter()
-            theirs = render_mitsuba(scene, args.spp, args.seeds, args.max_depth)
+            theirs = render_mitsuba(scene, args.spp, args.seeds, args.max_depth,
+                                    "volpath" if has_media(path) else "path")
             t_mitsuba = time.perf_counter() - t0
             t0 = time.perf_counter()
             ours = render_ours(bench, path, args.spp, args.seeds, args.max_depth, tmp,

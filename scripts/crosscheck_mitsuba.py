@@ -168,17 +168,30 @@ def read_exr(path):
     return np.array(mi.Bitmap(path), dtype=np.float64)[..., :3]
 
 
-def render_mitsuba(scene, spp, seeds, max_depth):
-    """K images (seeds 1000 + k) of Mitsuba's `path` with our max_depth + 1 and no roulette."""
+def render_mitsuba(scene, spp, seeds, max_depth, integrator="path"):
+    """K images (seeds 1000 + k) of Mitsuba's `path` (or `volpath`, which scenes with media
+    need: our `path` renders their media) with our max_depth + 1 and no roulette."""
     import mitsuba as mi
 
-    integrator = mi.load_dict({"type": "path", "max_depth": max_depth + 1, "rr_depth": max_depth + 2})
+    integrator = mi.load_dict({"type": integrator, "max_depth": max_depth + 1, "rr_depth": max_depth + 2})
     return np.stack(
         [
             np.array(mi.render(scene, integrator=integrator, spp=spp, seed=1000 + k), dtype=np.float64)[..., :3]
             for k in range(seeds)
         ]
     )
+
+
+def has_media(xml, depth=0):
+    """Whether a Mitsuba scene file (or a file it includes) declares a <medium>."""
+    text = open(xml, encoding="utf-8").read()
+    if "<medium" in text:
+        return True
+    for name in re.findall(r'<include\s+filename="([^"$]+)"', text) if depth < 8 else []:
+        included = os.path.join(os.path.dirname(xml), name)
+        if os.path.isfile(included) and has_media(included, depth + 1):
+            return True
+    return False
 
 
 def render_ours(bench, scene_file, spp, seeds, max_depth, tmp, extra=(), threads=(), strategy="path", sets=()):
@@ -243,7 +256,8 @@ def main():
             with open(xml, "w") as f:
                 f.write(text)
         t0 = time.perf_counter()
-        theirs = render_mitsuba(mi.load_file(xml), args.spp, args.seeds, args.max_depth)
+        theirs = render_mitsuba(mi.load_file(xml), args.spp, args.seeds, args.max_depth,
+                                "volpath" if has_media(xml) else "path")
         t_mitsuba = time.perf_counter() - t0
         t0 = time.perf_counter()
         ours = render_ours(args.bench, xml, args.spp, args.seeds, args.max_depth, tmp, threads=threads,

@@ -23,6 +23,7 @@ pub mod figure;
 pub mod film;
 pub mod geometry;
 pub mod light;
+pub mod medium;
 pub mod metrics;
 pub mod metropolis;
 pub mod params;

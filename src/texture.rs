@@ -342,7 +342,7 @@ impl Bitmap {
 /// Brings integer coordinate `i` into 0..n by the wrap mode. Non-finite coordinates (a NaN uv
 /// from a degenerate parameterization) land on texel 0 rather than anywhere undefined.
 #[inline]
-fn wrap_index(i: f32, n: u32, wrap: Wrap) -> usize {
+pub(crate) fn wrap_index(i: f32, n: u32, wrap: Wrap) -> usize {
     let n_f = n as f32;
     if !i.is_finite() {
         return 0;

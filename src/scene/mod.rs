@@ -152,6 +152,11 @@ pub struct PrimAttrs {
     /// through it, as Embree culls the inside of Mitsuba's open B-spline tubes
     /// ([`Scene::passes_through`]).
     pub cull_back: bool,
+    /// The media inside and outside the primitive's surface (indices into `Scene::media`;
+    /// Mitsuba's `interior` and `exterior`): a ray crossing it enters the one on the side it
+    /// goes to ([`Scene::medium_across`]).
+    pub interior: Option<u32>,
+    pub exterior: Option<u32>,
 }
 
 impl PrimAttrs {
@@ -163,6 +168,8 @@ impl PrimAttrs {
             emission: None,
             uv: UvMap::Barycentric,
             cull_back: false,
+            interior: None,
+            exterior: None,
         }
     }
 }
@@ -206,6 +213,11 @@ pub struct Scene {
     bounds: (Vec3, Vec3),
     /// Whether some material has an opacity mask (only then do rays test opacity).
     masked: bool,
+    /// Participating media ([`crate::medium`]), referenced by [`PrimAttrs::interior`] and
+    /// [`PrimAttrs::exterior`]; empty for a scene of surfaces only.
+    pub media: Vec<crate::medium::Medium>,
+    /// The medium the camera sits in (Mitsuba's sensor `medium`).
+    pub camera_medium: Option<u32>,
 }
 
 /// The emitters that are not shapes: at most one environment and any number of delta lights.
@@ -368,6 +380,8 @@ impl Scene {
             accel,
             bounds,
             masked,
+            media: Vec::new(),
+            camera_medium: None,
         })
     }
 
@@ -428,6 +442,25 @@ impl Scene {
         }
         let alpha = self.opacity(hit);
         alpha < 1.0 && opacity_sample(hit.p, d) >= alpha
+    }
+
+    /// The medium a ray leaving `hit` along `d` travels in, when the primitive bounds media
+    /// (Mitsuba's `target_medium`: the exterior on the side the geometric normal faces, the
+    /// interior behind it); `None` when it does not, and the ray stays in the medium it was in.
+    #[inline]
+    pub fn medium_across(&self, hit: &SurfaceHit, d: Vec3) -> Option<Option<u32>> {
+        let a = &self.attrs[hit.prim as usize];
+        if a.interior.is_none() && a.exterior.is_none() {
+            return None;
+        }
+        Some(if hit.ng.dot(d) > 0.0 { a.exterior } else { a.interior })
+    }
+
+    /// The first surface along `ray` *without* passing masks: the volumetric walk passes them
+    /// itself, since a medium boundary it passes still changes the medium.
+    #[inline]
+    pub fn intersect_any(&self, ray: &Ray) -> Option<SurfaceHit> {
+        Some(self.surface_hit(ray, self.accel.intersect(ray)?))
     }
 
     /// Follows `ray` on through the masked surfaces it passes ([`Scene::passes_through`]).

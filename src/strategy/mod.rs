@@ -18,6 +18,7 @@ pub mod light;
 pub mod mlt;
 pub mod mps;
 pub mod path;
+pub mod path_media;
 pub mod photon_guided;
 pub mod photon_map;
 pub mod ppg;
@@ -75,6 +76,10 @@ pub struct Capabilities {
     /// when a sampled direction's density is only known approximately, as it is for MIS and
     /// plain BSDF sampling, and not for Metropolis proposals.
     pub stochastic_bsdfs: bool,
+    /// Participating media ([`crate::medium`]): only `path` renders them (its volumetric walk,
+    /// [`crate::strategy::path_media`]); not part of [`Capabilities::ALL`], so that a strategy
+    /// claims them only by name.
+    pub media: bool,
 }
 
 impl Capabilities {
@@ -86,7 +91,9 @@ impl Capabilities {
         mixed_delta: false,
         opacity_masks: false,
         stochastic_bsdfs: false,
+        media: false,
     };
+    /// Every feature of surfaces, lights and cameras (participating media are claimed by name).
     pub const ALL: Self = Self {
         environment: true,
         point_lights: true,
@@ -95,6 +102,7 @@ impl Capabilities {
         mixed_delta: true,
         opacity_masks: true,
         stochastic_bsdfs: true,
+        media: false,
     };
 }
 
@@ -139,6 +147,10 @@ pub trait Strategy: Send + Sync {
 
     fn handles_stochastic_bsdfs(&self) -> bool {
         self.capabilities().stochastic_bsdfs
+    }
+
+    fn handles_media(&self) -> bool {
+        self.capabilities().media
     }
 
     /// Work done once per scene and seed before any sample is taken.
@@ -230,6 +242,18 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
             strategy.kind(),
             m.name,
             able(|s| s.handles_stochastic_bsdfs()).join(", ")
+        );
+    }
+    if let Some(m) = scene.media.first()
+        && !strategy.handles_media()
+    {
+        crate::bail!(
+            "{}: strategy `{}` does not render participating media (the scene's medium {:?}) yet; \
+             strategies that do: {}",
+            scene.source.display(),
+            strategy.kind(),
+            m.name,
+            able(|s| s.handles_media()).join(", ")
         );
     }
     if scene.environment.is_some() && !strategy.handles_environment() {

@@ -116,6 +116,7 @@ impl Strategy for Path {
         crate::strategy::Capabilities {
             point_lights: self.params.direct != Direct::Bsdf,
             directional_lights: self.params.direct != Direct::Bsdf,
+            media: true,
             ..crate::strategy::Capabilities::ALL
         }
     }
@@ -420,6 +421,10 @@ pub fn radiance_traced(scene: &Scene, params: &PathParams, ray: Ray, rng: &mut R
         direct: params.direct,
         lights: params.light_sampling(),
     };
+    if !scene.media.is_empty() {
+        // Scenes with participating media take the volumetric walk (its rays are not tallied).
+        return super::path_media::trace(scene, &walk, params.bsdf_sampling, ray, rng);
+    }
     trace(scene, &walk, &params.bsdf_sampling, ray, rng, tally)
 }
 

@@ -31,7 +31,14 @@ pub enum MaterialDesc {
     BumpMap(BumpMap),
     Blend(Blend),
     Coated(Coated),
+    Null(Null),
 }
+
+/// Mitsuba's `null`: a surface every ray passes unchanged, which only marks the boundary of a
+/// participating medium (its `interior` / `exterior`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Null {}
 
 /// A diffuse base under a smooth dielectric coating (Mitsuba's `plastic`).
 #[derive(Clone, Debug, Deserialize)]

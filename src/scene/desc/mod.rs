@@ -345,6 +345,74 @@ pub struct SceneDesc {
     /// Point, spot and directional lights.
     #[serde(default)]
     pub lights: Vec<LightDesc>,
+    /// Participating media by name, referenced by shapes' `interior` / `exterior` and the
+    /// camera's `medium`.
+    #[serde(default)]
+    pub media: BTreeMap<String, MediumDesc>,
+}
+
+/// A participating medium (`[media.NAME]`); `type` selects the kind (Mitsuba's media of the
+/// same names).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum MediumDesc {
+    Homogeneous(HomogeneousDesc),
+}
+
+/// A medium of constant extinction (Mitsuba's `homogeneous`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomogeneousDesc {
+    /// σ_t per channel, in inverse scene units, each >= 0 (default [1, 1, 1]).
+    pub sigma_t: Option<Triple>,
+    /// Multiplies `sigma_t` (default 1), > 0.
+    pub scale: Option<f64>,
+    /// Single-scattering albedo σ_s / σ_t per channel in [0, 1] (default 0.75, Mitsuba's); or
+    /// `albedo_grid`.
+    pub albedo: Option<Triple>,
+    /// The albedo from a 3-D grid (Mitsuba's `gridvolume`).
+    pub albedo_grid: Option<GridDesc>,
+    /// The phase function (default isotropic).
+    pub phase: Option<PhaseDesc>,
+    /// Whether scattering in the medium samples emitters (default true).
+    pub sample_emitters: Option<bool>,
+}
+
+/// A grid of values over the unit cube, read from a Mitsuba `.vol` file.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridDesc {
+    /// Relative to the scene file's directory.
+    pub file: String,
+    /// "trilinear" (default) or "nearest".
+    pub filter: Option<String>,
+    /// "clamp" (default), "repeat" or "mirror": outside the unit cube.
+    pub wrap: Option<String>,
+    /// Maps the unit cube into the world (default: identity).
+    pub to_world: Option<TransformDesc>,
+    /// Map the file's own bounding box onto the unit cube first (default false).
+    pub use_grid_bbox: Option<bool>,
+}
+
+/// A phase function; `type` selects it.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum PhaseDesc {
+    Isotropic(NoParams),
+    /// Henyey–Greenstein with mean cosine `g` in (−1, 1).
+    Hg(HgDesc),
+}
+
+/// A kind without parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoParams {}
+
+/// Henyey–Greenstein's parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HgDesc {
+    pub g: f64,
 }
 
 /// A light that is not a shape; `type` selects the variant (Mitsuba's emitters of the same
@@ -479,6 +547,8 @@ pub struct CameraDesc {
     /// with it set).
     #[serde(default)]
     pub flip_x: bool,
+    /// The medium the camera sits in (a name in `[media]`; default none).
+    pub medium: Option<String>,
 }
 
 /// The camera's lens (Mitsuba's sensors of the same kinds); `type` selects it.

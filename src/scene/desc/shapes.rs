@@ -20,6 +20,36 @@ pub enum ShapeDesc {
 }
 
 impl ShapeDesc {
+    /// The shape's media (interior, exterior), whatever its kind.
+    pub fn media(&self) -> (Option<&str>, Option<&str>) {
+        let (i, e) = match self {
+            ShapeDesc::Quad(s) => (&s.interior, &s.exterior),
+            ShapeDesc::Box(s) => (&s.interior, &s.exterior),
+            ShapeDesc::Sphere(s) => (&s.interior, &s.exterior),
+            ShapeDesc::Mesh(s) => (&s.interior, &s.exterior),
+            ShapeDesc::Disk(s) => (&s.interior, &s.exterior),
+            ShapeDesc::Cylinder(s) => (&s.interior, &s.exterior),
+            ShapeDesc::Triangles(s) => (&s.interior, &s.exterior),
+            ShapeDesc::LinearCurve(s) | ShapeDesc::BsplineCurve(s) => (&s.interior, &s.exterior),
+        };
+        (i.as_deref(), e.as_deref())
+    }
+
+    /// Sets the shape's media, whatever its kind.
+    pub fn set_media(&mut self, interior: Option<String>, exterior: Option<String>) {
+        let (i, e) = match self {
+            ShapeDesc::Quad(s) => (&mut s.interior, &mut s.exterior),
+            ShapeDesc::Box(s) => (&mut s.interior, &mut s.exterior),
+            ShapeDesc::Sphere(s) => (&mut s.interior, &mut s.exterior),
+            ShapeDesc::Mesh(s) => (&mut s.interior, &mut s.exterior),
+            ShapeDesc::Disk(s) => (&mut s.interior, &mut s.exterior),
+            ShapeDesc::Cylinder(s) => (&mut s.interior, &mut s.exterior),
+            ShapeDesc::Triangles(s) => (&mut s.interior, &mut s.exterior),
+            ShapeDesc::LinearCurve(s) | ShapeDesc::BsplineCurve(s) => (&mut s.interior, &mut s.exterior),
+        };
+        (*i, *e) = (interior, exterior);
+    }
+
     /// The shape's transform, whatever its kind.
     pub fn transform_mut(&mut self) -> &mut Option<TransformDesc> {
         match self {
@@ -42,6 +72,9 @@ impl ShapeDesc {
 #[serde(deny_unknown_fields)]
 pub struct Triangles {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     pub positions: Vec<Triple>,
     pub indices: Option<Vec<i64>>,
     pub normals: Option<Vec<Triple>>,
@@ -56,6 +89,9 @@ pub struct Triangles {
 #[serde(deny_unknown_fields)]
 pub struct Quad {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     pub corner: Option<Triple>,
     pub edge_u: Option<Triple>,
     pub edge_v: Option<Triple>,
@@ -76,6 +112,9 @@ pub struct Quad {
 #[serde(deny_unknown_fields)]
 pub struct Cuboid {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     pub min: Option<Triple>,
     pub max: Option<Triple>,
     pub center: Option<Triple>,
@@ -91,6 +130,9 @@ pub struct Cuboid {
 #[serde(deny_unknown_fields)]
 pub struct Sphere {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     pub center: Triple,
     pub radius: f64,
     pub transform: Option<TransformDesc>,
@@ -102,6 +144,9 @@ pub struct Sphere {
 #[serde(deny_unknown_fields)]
 pub struct Mesh {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     /// Relative to the directory of the scene file.
     pub file: String,
     /// Ignore the file's vertex normals and shade with the triangles' own normals (default
@@ -131,6 +176,9 @@ pub struct Mesh {
 #[serde(deny_unknown_fields)]
 pub struct Disk {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     /// Turn the front side to −z (default false), as Mitsuba's `flip_normals`.
     #[serde(default)]
     pub flip_normals: bool,
@@ -148,6 +196,9 @@ pub struct Disk {
 #[serde(deny_unknown_fields)]
 pub struct Curves {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     /// Relative to the directory of the scene file.
     pub file: String,
     pub transform: Option<TransformDesc>,
@@ -159,6 +210,9 @@ pub struct Curves {
 #[serde(deny_unknown_fields)]
 pub struct Cylinder {
     pub material: String,
+    /// The media inside and outside the surface: names of `[media]` tables (default: none).
+    pub interior: Option<String>,
+    pub exterior: Option<String>,
     /// Start of the axis (default [0, 0, 0]).
     pub p0: Option<Triple>,
     /// End of the axis (default [0, 0, 1]); must differ from `p0`.

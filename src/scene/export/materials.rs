@@ -163,6 +163,7 @@ pub(super) fn material_xml(
                 scalar_xml("weight", b.weight.as_ref(), files)?
             )
         }
+        MaterialDesc::Null(_) => format!("    <bsdf type=\"null\" id=\"{id}\"/>\n"),
         MaterialDesc::Phong(_) => return Err(err(field, "phong has no Mitsuba 3 equivalent")),
         MaterialDesc::Coated(_) => {
             return Err(err(

@@ -35,6 +35,7 @@ use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
 mod materials;
+mod media;
 use materials::material_xml;
 
 /// Mitsuba's rectangle and cube are two and twelve triangles: a subdivided quad or box (the
@@ -107,6 +108,9 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) ->
         escape(&file.replace("--", "-"))
     );
     let _ = writeln!(x, "<scene version=\"3.0.0\">");
+    let scene_dir = scene.parent().unwrap_or(Path::new(""));
+    let files = Files { scene_dir, out_dir };
+    x.push_str(&media::media_xml(desc, &files, &file)?);
     let [fw, fh] = c.resolution.0;
     match c.lens {
         Some(desc::LensDesc::Orthographic(o)) => {
@@ -176,10 +180,9 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) ->
     let _ = writeln!(x, "            {}", rfilter_xml(c.filter));
     let _ = writeln!(x, "            <string name=\"pixel_format\" value=\"rgb\"/>");
     let _ = writeln!(x, "        </film>");
+    x.push_str(&media::medium_refs(&[("medium", c.medium.as_deref())], "        "));
     let _ = writeln!(x, "    </sensor>");
 
-    let scene_dir = scene.parent().unwrap_or(Path::new(""));
-    let files = Files { scene_dir, out_dir };
     for (name, m) in &desc.materials {
         let field = format!("materials.{name}");
         x.push_str(&material_xml(
@@ -331,6 +334,11 @@ pub fn to_xml(desc: &SceneDesc, scene: &Path, (out_dir, stem): (&Path, &str)) ->
         let _ = writeln!(x, "    <shape type=\"{kind}\">");
         x.push_str(&props);
         let _ = writeln!(x, "        <ref id=\"{}\"/>", escape(material));
+        let (interior, exterior) = shape.media();
+        x.push_str(&media::medium_refs(
+            &[("interior", interior), ("exterior", exterior)],
+            "        ",
+        ));
         if let Some(e) = emission {
             if e.two_sided {
                 return Err(err(

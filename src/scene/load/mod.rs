@@ -27,6 +27,7 @@ pub(crate) use curved::cylinder_frame;
 mod environment;
 mod lights;
 mod locate;
+mod media;
 mod mesh;
 mod mesh_formats;
 pub use mesh_formats::mesh_file_has_normals;
@@ -317,6 +318,26 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         ));
     }
     let user_paths = user_paths(&ctx, &desc.user_paths, &b.primitives, &b.attrs)?;
+    let (media, medium_index) = media::media(&ctx, &b.dir, &desc.media, &mut b.hashed, &mut b.stats.files_read)?;
+    if let (Some(m), false) = (media.iter().find(|m| !m.sample_emitters), delta.is_empty()) {
+        // Only light sampling reaches a point, spot, projector or directional light: a medium
+        // that samples no emitters would scatter none of their light (Mitsuba renders it so).
+        return Err(ctx.err(
+            &format!("media.{}.sample_emitters", key_string(&m.name)),
+            "expected true in a scene with point, spot, projector or directional lights (only light sampling reaches them)",
+        ));
+    }
+    let camera_medium = media::medium_ref(&ctx, "camera.medium", desc.camera.medium.as_deref(), &medium_index)?;
+    for (i, shape) in desc.shapes.iter().enumerate() {
+        let field = shape_field(i);
+        let (interior, exterior) = shape.media();
+        let interior = media::medium_ref(&ctx, &format!("{field}.interior"), interior, &medium_index)?;
+        let exterior = media::medium_ref(&ctx, &format!("{field}.exterior"), exterior, &medium_index)?;
+        let end = b.shape_starts.get(i + 1).map_or(b.attrs.len(), |s| s.0);
+        for a in &mut b.attrs[b.shape_starts[i].0..end] {
+            (a.interior, a.exterior) = (interior, exterior);
+        }
+    }
 
     let explicit = source.name.clone().or_else(|| desc.name.clone());
     if let Some(name) = &explicit
@@ -362,6 +383,8 @@ pub fn load_source_bytes(source: &SceneSource, bytes: &[u8]) -> Result<(Scene, L
         Emitters { environment, delta },
     )?;
     scene.params = source.sorted_params();
+    scene.media = media;
+    scene.camera_medium = camera_medium;
     Ok((scene, stats))
 }
 

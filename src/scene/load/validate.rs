@@ -271,6 +271,8 @@ pub(super) fn materials(
         // A mask is a property of the surface, not of the model: outermost (validation refuses
         // it anywhere else).
         let (d, field, opacity) = match d {
+            // Every ray passes a null surface: a mask of opacity 0 (its model is never asked).
+            MaterialDesc::Null(_) => (d, field, Some(crate::texture::Scalar::Constant(0.0))),
             MaterialDesc::Mask(m) => {
                 let opacity = m.opacity.clone().unwrap_or(desc::ScalarDesc::Value(0.5));
                 (
@@ -302,6 +304,11 @@ pub(super) fn materials(
     Ok((out, index))
 }
 
+/// Why a `null` material is refused inside another: it is a surface property (rays pass it),
+/// not a reflectance model.
+const NULL_NESTED: &str =
+    "expected a material other than null (a null surface only marks a medium's boundary: use it alone)";
+
 pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Result<()> {
     let f = |key: &str| format!("{field}.{key}");
     let ior = |ior: f64| {
@@ -316,7 +323,7 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
     };
     match d {
         // Checked while built, textures included (`make_bsdf`).
-        MaterialDesc::Diffuse(_) => {}
+        MaterialDesc::Diffuse(_) | MaterialDesc::Null(_) => {}
         MaterialDesc::Mirror(m) => {
             ctx.unit_rgb(&f("reflectance"), m.reflectance)?;
         }
@@ -374,6 +381,7 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                     | MaterialDesc::Mask(_)
                     | MaterialDesc::NormalMap(_)
                     | MaterialDesc::BumpMap(_)
+                    | MaterialDesc::Null(_)
             ) {
                 return Err(ctx.err(
                     &f("bsdf"),
@@ -400,6 +408,9 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                         "expected a material that is not a mask, a normal map or a bump map (they go around the blend)",
                     ));
                 }
+                if matches!(b, MaterialDesc::Null(_)) {
+                    return Err(ctx.err(&field, NULL_NESTED));
+                }
                 validate_material(ctx, &field, b)?;
             }
         }
@@ -416,6 +427,9 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
             if matches!(*m.bsdf, MaterialDesc::Mask(_)) {
                 return Err(ctx.err(&f("bsdf"), "expected a material that is not itself a mask"));
             }
+            if matches!(*m.bsdf, MaterialDesc::Null(_)) {
+                return Err(ctx.err(&f("bsdf"), NULL_NESTED));
+            }
             validate_material(ctx, &f("bsdf"), &m.bsdf)?;
         }
         MaterialDesc::NormalMap(desc::NormalMap { bsdf, .. }) | MaterialDesc::BumpMap(desc::BumpMap { bsdf, .. }) => {
@@ -427,6 +441,9 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                     &f("bsdf"),
                     "expected a material that is not a mask, a normal map or a bump map (a mask goes around them)",
                 ));
+            }
+            if matches!(**bsdf, MaterialDesc::Null(_)) {
+                return Err(ctx.err(&f("bsdf"), NULL_NESTED));
             }
             if let MaterialDesc::BumpMap(b) = d
                 && !b.scale.unwrap_or(1.0).is_finite()
@@ -517,6 +534,10 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         // `materials` takes the opacity off the outermost material; validation refuses a mask
         // anywhere else.
         MaterialDesc::Mask(m) => make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?,
+        // Never evaluated: every ray passes the surface (`materials` gives it opacity 0).
+        MaterialDesc::Null(_) => Bsdf::Lambertian(Lambertian {
+            reflectance: glam::Vec3::ZERO,
+        }),
         MaterialDesc::NormalMap(m) => {
             let c = textures.normals(ctx, &format!("{field}.normals"), &m.normals)?;
             let nested = make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?;

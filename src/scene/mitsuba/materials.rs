@@ -26,6 +26,15 @@ impl<'a, 'i> Reader<'a, 'i> {
             // Each model keeps its own sidedness (a blended dielectric stays two-sided).
             return self.blend(n, Self::bsdf);
         }
+        if kind == "null" {
+            // Rays pass it unchanged: a medium's boundary (our `null` material).
+            let o = self.obj(n)?;
+            if let Some(&c) = o.children.first() {
+                return Err(self.err(c, "unexpected element in a null BSDF"));
+            }
+            self.finish(&o)?;
+            return Ok(MaterialDesc::Null(desc::Null {}));
+        }
         if kind == "twosided" {
             let o = self.obj(n)?;
             self.finish(&o)?;

@@ -76,6 +76,7 @@
 
 mod emitters;
 mod materials;
+mod media;
 mod sensor;
 mod shapes;
 mod textures;
@@ -190,6 +191,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
         emitter_ids: BTreeMap::new(),
         texture_ids: BTreeMap::new(),
         sampler_ids: std::collections::BTreeSet::new(),
+        media: BTreeMap::new(),
     };
     let imported = r.scene(doc.root_element())?;
     if let Some((name, _)) = params.iter().find(|(name, _)| !used.borrow().contains(name)) {
@@ -246,6 +248,8 @@ struct Reader<'a, 'i> {
     texture_ids: BTreeMap<String, crate::scene::desc::TextureDesc>,
     /// Each top-level `<sampler id>`, which a sensor may `<ref>` (and we ignore).
     sampler_ids: std::collections::BTreeSet<String>,
+    /// Every medium by name: top-level `<medium id>`s and those nested in shapes and sensors.
+    media: BTreeMap<String, desc::MediumDesc>,
 }
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -395,6 +399,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 user_paths: Vec::new(),
                 environment,
                 lights,
+                media: std::mem::take(&mut self.media),
             },
             shape_labels: labels,
             warnings: std::mem::take(&mut self.warnings),
@@ -444,6 +449,18 @@ impl<'a, 'i> Reader<'a, 'i> {
                 return Err(self.err(n, format!("id {id:?} is used twice")));
             }
         }
+        for &n in elements.iter().filter(|n| n.has_tag_name("medium")) {
+            let Some(id) = self.attr(n, "id")? else {
+                return Err(self.err(
+                    n,
+                    "a top-level <medium> needs an `id` for shapes and sensors to <ref> it",
+                ));
+            };
+            let m = self.medium(n)?;
+            if self.media.insert(id.clone(), m).is_some() {
+                return Err(self.err(n, format!("id {id:?} is used twice")));
+            }
+        }
         for &n in &elements {
             if n.has_tag_name("emitter") && n.attribute("type") == Some("area") {
                 let Some(id) = self.attr(n, "id")? else {
@@ -476,7 +493,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         for &n in &elements {
             match n.tag_name().name() {
-                "default" | "bsdf" | "texture" | "path" => {}
+                "default" | "bsdf" | "texture" | "path" | "medium" => {}
                 "include" => self.include(n, parts)?,
                 "sensor" => {
                     if parts.camera.is_some() {
@@ -520,7 +537,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     return Err(self.err(
                         n,
                         format!(
-                            "unsupported element <{other}> (photon-bench reads default, include, path, sensor, bsdf, texture, shape, integrator and sampler)"
+                            "unsupported element <{other}> (photon-bench reads default, include, path, sensor, bsdf, texture, medium, shape, integrator and sampler)"
                         ),
                     ));
                 }
@@ -577,6 +594,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             emitter_ids: std::mem::take(&mut self.emitter_ids),
             texture_ids: std::mem::take(&mut self.texture_ids),
             sampler_ids: std::mem::take(&mut self.sampler_ids),
+            media: std::mem::take(&mut self.media),
         };
         let read = inner.scene_elements(doc.root_element(), parts);
         self.defaults = inner.defaults;
@@ -584,6 +602,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         self.materials = inner.materials;
         self.bsdf_ids = inner.bsdf_ids;
         self.emitter_ids = inner.emitter_ids;
+        self.media = inner.media;
         self.texture_ids = inner.texture_ids;
         self.sampler_ids = inner.sampler_ids;
         self.including = inner.including;

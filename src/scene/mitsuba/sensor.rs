@@ -72,8 +72,15 @@ impl<'a, 'i> Reader<'a, 'i> {
             None => DMat4::IDENTITY,
         };
         let (mut width, mut height, mut filter, mut crop) = (None, None, None, None);
+        let mut medium = None;
         for c in o.children.clone() {
             match c.tag_name().name() {
+                "ref" | "medium" if c.attribute("name") == Some("medium") || c.has_tag_name("medium") => {
+                    if medium.is_some() {
+                        return Err(self.err(c, "a second medium for the sensor"));
+                    }
+                    medium = Some(self.medium_child(c, "sensor-medium".to_string())?);
+                }
                 "film" => {
                     if width.is_some() {
                         return Err(self.err(c, "a second <film>"));
@@ -88,7 +95,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 other => {
                     return Err(self.err(
                         c,
-                        format!("unsupported element <{other}> in a sensor (film, sampler, a <ref> to a sampler)"),
+                        format!("unsupported element <{other}> in a sensor (film, sampler, medium, a <ref> to a sampler or medium)"),
                     ));
                 }
             }
@@ -148,6 +155,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             filter: Some(filter.unwrap_or(desc::FilterDesc::Gaussian(desc::GaussianFilterDesc { stddev: None }))),
             crop,
             flip_x,
+            medium,
         })
     }
 

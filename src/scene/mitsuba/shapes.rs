@@ -20,7 +20,30 @@ impl<'a, 'i> Reader<'a, 'i> {
         }
         let mut material = None;
         let mut emission = None;
+        let (mut interior, mut exterior) = (None, None);
         for c in o.children.clone() {
+            match (c.tag_name().name(), c.attribute("name")) {
+                ("ref" | "medium", Some(side @ ("interior" | "exterior"))) => {
+                    let slot = if side == "interior" {
+                        &mut interior
+                    } else {
+                        &mut exterior
+                    };
+                    if slot.is_some() {
+                        return Err(self.err(c, format!("a second {side} medium for this shape")));
+                    }
+                    *slot = Some(self.medium_child(c, format!("shape{index}-{side}"))?);
+                }
+                ("medium", _) => {
+                    return Err(self.err(c, "a medium in a shape needs name=\"interior\" or name=\"exterior\""));
+                }
+                _ => {}
+            }
+        }
+        for c in o.children.clone() {
+            if c.attribute("name").is_some_and(|s| s == "interior" || s == "exterior") {
+                continue;
+            }
             match c.tag_name().name() {
                 "ref" if c.attribute("id").is_some_and(|id| self.emitter_ids.contains_key(id)) => {
                     if emission.is_some() {
@@ -62,7 +85,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                 other => {
                     return Err(self.err(
                         c,
-                        format!("unsupported element <{other}> in a shape (bsdf, ref, emitter)"),
+                        format!("unsupported element <{other}> in a shape (bsdf, ref, emitter, medium)"),
                     ));
                 }
             }
@@ -93,6 +116,8 @@ impl<'a, 'i> Reader<'a, 'i> {
         let shape = match kind.as_str() {
             "rectangle" => ShapeDesc::Quad(desc::Quad {
                 material,
+                interior: None,
+                exterior: None,
                 corner: Some(Fixed([-1.0, -1.0, 0.0])),
                 edge_u: Some(Fixed([2.0, 0.0, 0.0])),
                 edge_v: Some(Fixed([0.0, 2.0, 0.0])),
@@ -105,6 +130,8 @@ impl<'a, 'i> Reader<'a, 'i> {
             }),
             "cube" => ShapeDesc::Box(desc::Cuboid {
                 material,
+                interior: None,
+                exterior: None,
                 min: Some(Fixed([-1.0; 3])),
                 max: Some(Fixed([1.0; 3])),
                 center: None,
@@ -115,6 +142,8 @@ impl<'a, 'i> Reader<'a, 'i> {
             }),
             "sphere" => ShapeDesc::Sphere(desc::Sphere {
                 material,
+                interior: None,
+                exterior: None,
                 center: Fixed(self.point(&mut o, "center")?.unwrap_or(DVec3::ZERO).to_array()),
                 radius: self.float(&mut o, "radius")?.unwrap_or(1.0),
                 transform,
@@ -122,6 +151,8 @@ impl<'a, 'i> Reader<'a, 'i> {
             }),
             "disk" => ShapeDesc::Disk(desc::Disk {
                 material,
+                interior: None,
+                exterior: None,
                 flip_normals,
                 transform,
                 emission,
@@ -130,6 +161,8 @@ impl<'a, 'i> Reader<'a, 'i> {
                 let (p0, p1, radius) = self.cylinder_axis(n, &mut o, to_world, emission.is_some())?;
                 ShapeDesc::Cylinder(desc::Cylinder {
                     material,
+                    interior: None,
+                    exterior: None,
                     p0: Some(Fixed(p0.to_array())),
                     p1: Some(Fixed(p1.to_array())),
                     radius: Some(radius),
@@ -151,6 +184,8 @@ impl<'a, 'i> Reader<'a, 'i> {
                 }
                 let curves = desc::Curves {
                     material,
+                    interior: None,
+                    exterior: None,
                     file: self.loader_path(p, &file, &path)?,
                     transform,
                 };
@@ -186,6 +221,8 @@ impl<'a, 'i> Reader<'a, 'i> {
                 // the scene asks for face normals.
                 ShapeDesc::Mesh(desc::Mesh {
                     material,
+                    interior: None,
+                    exterior: None,
                     file,
                     face_normals,
                     smooth_normals: !face_normals,
@@ -205,6 +242,8 @@ impl<'a, 'i> Reader<'a, 'i> {
             }
         };
         self.finish(&o)?;
+        let mut shape = shape;
+        shape.set_media(interior, exterior);
         Ok(shape)
     }
 

@@ -351,6 +351,7 @@ impl<'a> Translator<'a> {
                 lens
             },
             flip_x,
+            medium: None,
         });
         Ok(())
     }
@@ -438,6 +439,7 @@ impl<'a> Translator<'a> {
             user_paths: Vec::new(),
             environment: self.environment.take(),
             lights: std::mem::take(&mut self.lights),
+            media: Default::default(),
         };
         Ok((
             desc,

@@ -325,6 +325,8 @@ impl Translator<'_> {
                 };
                 ShapeDesc::Triangles(desc::Triangles {
                     material,
+                    interior: None,
+                    exterior: None,
                     positions,
                     indices,
                     normals,
@@ -346,6 +348,8 @@ impl Translator<'_> {
                 let file = string_param(d, params, "filename")?.ok_or_else(|| d.err("expected \"string filename\""))?;
                 ShapeDesc::Mesh(desc::Mesh {
                     material,
+                    interior: None,
+                    exterior: None,
                     file: self.dir.join(&file).display().to_string(),
                     face_normals: false,
                     smooth_normals: false,
@@ -367,6 +371,8 @@ impl Translator<'_> {
                 }
                 ShapeDesc::Sphere(desc::Sphere {
                     material,
+                    interior: None,
+                    exterior: None,
                     center: Fixed(self.point(DVec3::ZERO).to_array()),
                     radius: float_param(d, params, "radius")?.unwrap_or(1.0) * self.uniform_scale(d)?,
                     transform: None,
@@ -383,6 +389,8 @@ impl Translator<'_> {
                     * DMat4::from_scale(DVec3::new(r, r, 1.0));
                 ShapeDesc::Disk(desc::Disk {
                     material,
+                    interior: None,
+                    exterior: None,
                     flip_normals: ro,
                     transform: Some(TransformDesc::from_matrix(m)),
                     emission,
@@ -393,6 +401,8 @@ impl Translator<'_> {
                 self.whole(d, &["phimax"])?;
                 ShapeDesc::Cylinder(desc::Cylinder {
                     material,
+                    interior: None,
+                    exterior: None,
                     p0: Some(Fixed([0.0, 0.0, float_param(d, params, "zmin")?.unwrap_or(-1.0)])),
                     p1: Some(Fixed([0.0, 0.0, float_param(d, params, "zmax")?.unwrap_or(1.0)])),
                     radius: Some(float_param(d, params, "radius")?.unwrap_or(1.0)),
@@ -464,6 +474,8 @@ impl Translator<'_> {
             .map_err(|e| d.err(format!("loopsubdiv: {e}")))?;
         Ok(ShapeDesc::Triangles(desc::Triangles {
             material,
+            interior: None,
+            exterior: None,
             positions: s.positions.iter().map(|q| Fixed(q.to_array())).collect(),
             indices: Some(s.triangles.iter().flatten().map(|&i| i64::from(i)).collect()),
             normals: Some(s.normals.iter().map(|q| Fixed(q.to_array())).collect()),
@@ -545,6 +557,8 @@ impl Translator<'_> {
         };
         Ok(ShapeDesc::Triangles(desc::Triangles {
             material,
+            interior: None,
+            exterior: None,
             positions,
             indices: Some(indices),
             normals: None,

@@ -1,0 +1,258 @@
+//! Participating media (`[media]`, Mitsuba's `homogeneous` medium with `null` boundaries):
+//! `path`'s volumetric walk conserves energy, attenuates by the closed-form transmittance, its
+//! next-event estimation through media agrees with phase sampling alone, the scene is written
+//! to Mitsuba and read back, other strategies refuse it, and bad input is refused in one line.
+
+mod agreement;
+
+use agreement::{
+    assert_agrees, assert_bit_identical_across_threads, assert_refused, image_mean, load_text as load,
+    render_image as render,
+};
+
+/// A 12 × 12 camera at z = 4 looking at the origin.
+const CAMERA: &str = "[camera]\neye = [0, 0, 4]\nlook_at = [0, 0, 0]\nfov_y = 30\nresolution = [12, 12]\n";
+
+/// A ball of medium (radius 1, null boundary) in a uniform white environment of radiance 1:
+/// with albedo 1 nothing is absorbed, so every pixel must see radiance 1 — through the ball and
+/// around it, whatever the phase function, with or without emitter sampling in the medium
+/// (a white furnace for the volumetric walk: distance sampling, phase sampling, NEE with
+/// transmittance through the boundary and MIS all have to agree for this to hold).
+fn furnace(phase: &str, sample_emitters: bool, sigma_t: [f32; 3]) -> String {
+    format!(
+        "{CAMERA}[environment]\ntype = \"constant\"\nradiance = [1, 1, 1]\n\
+         [materials.boundary]\ntype = \"null\"\n\
+         [media.fog]\ntype = \"homogeneous\"\nsigma_t = [{}, {}, {}]\nalbedo = [1, 1, 1]\nphase = {phase}\nsample_emitters = {sample_emitters}\n\
+         [[shapes]]\ntype = \"sphere\"\nmaterial = \"boundary\"\ncenter = [0, 0, 0]\nradius = 1\ninterior = \"fog\"\n",
+        sigma_t[0], sigma_t[1], sigma_t[2]
+    )
+}
+
+#[test]
+fn a_white_medium_in_a_white_furnace_is_invisible() {
+    let dir = tempfile::tempdir().unwrap();
+    for (i, (phase, sample_emitters, sigma_t)) in [
+        ("{ type = \"isotropic\" }", true, [2.0, 2.0, 2.0]),
+        ("{ type = \"hg\", g = 0.7 }", true, [0.5, 2.0, 6.0]),
+        ("{ type = \"hg\", g = -0.5 }", false, [3.0, 3.0, 3.0]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let scene = load(
+            dir.path(),
+            &format!("furnace{i}.toml"),
+            &furnace(phase, sample_emitters, sigma_t),
+        )
+        .unwrap();
+        // Deep paths: at σ_t = 6 a path scatters ~20 times before it leaves the ball.
+        let img = render(&scene, "path", "max_depth = 1000\nrr_depth = 1000", 256, 3);
+        for c in 0..3 {
+            let (mean, se) = mean_and_error(&img, c);
+            assert!(
+                (mean - 1.0).abs() <= 4.0 * se + 1e-6 && se < 0.01,
+                "{phase}, σ_t {sigma_t:?}: channel {c} mean {mean} ± {se}, expected 1"
+            );
+        }
+    }
+}
+
+/// Over the pixels of `img` (independent estimates), the mean of channel `c` and its standard
+/// error.
+fn mean_and_error(img: &photon_bench::film::Image, c: usize) -> (f64, f64) {
+    let n = img.pixels.len() as f64;
+    let v: Vec<f64> = img.pixels.iter().map(|p| f64::from(p[c])).collect();
+    let mean = v.iter().sum::<f64>() / n;
+    let se = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+    (mean, se)
+}
+
+/// An absorbing slab (albedo 0, σ_t different per channel, 0.5 thick between null walls) in
+/// front of an emitting wall of radiance 1: every ray through it sees e^{−σ_t · 0.5} per
+/// channel — the collision estimator's passing weights with the channel mixture.
+#[test]
+fn an_absorbing_slab_transmits_the_closed_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let sigma = [0.4f32, 1.5, 4.0];
+    let text = format!(
+        "{CAMERA}[materials.boundary]\ntype = \"null\"\n[materials.black]\ntype = \"diffuse\"\nreflectance = [0, 0, 0]\n\
+         [media.ink]\ntype = \"homogeneous\"\nsigma_t = [{}, {}, {}]\nalbedo = [0, 0, 0]\n\
+         [[shapes]]\ntype = \"box\"\nmaterial = \"boundary\"\nmin = [-5, -5, 0.25]\nmax = [5, 5, 0.75]\ninterior = \"ink\"\n\
+         [[shapes]]\ntype = \"quad\"\nmaterial = \"black\"\ncenter = [0, 0, -1]\nsize = [20, 20]\nfacing = \"+z\"\n\
+         emission = {{ radiance = [1, 1, 1] }}\n",
+        sigma[0], sigma[1], sigma[2]
+    );
+    // A narrow view: every ray crosses the slab within 10⁻⁴ of straight on.
+    let text = text.replacen("fov_y = 30", "fov_y = 1", 1);
+    let scene = load(dir.path(), "slab.toml", &text).unwrap();
+    let img = render(&scene, "path", "", 256, 1);
+    for (c, s) in sigma.iter().enumerate() {
+        let (mean, se) = mean_and_error(&img, c);
+        let expected = f64::from(-s * 0.5).exp();
+        assert!(
+            (mean - expected).abs() < 4.0 * se && se < 0.01 * expected,
+            "channel {c}: {mean} ± {se} vs e^(-σ·0.5) = {expected}"
+        );
+    }
+}
+
+/// A room with a fog box lit by a small area light and a point light, a glass ball with a
+/// scattering interior: next-event estimation through media (with MIS) and phase/BSDF sampling
+/// alone estimate the same image.
+fn foggy_room(sample_emitters: bool, point_light: bool) -> String {
+    let point = if point_light {
+        "[[lights]]\ntype = \"point\"\nposition = [-1, 1.5, 1]\nintensity = [1, 1, 1]\n"
+    } else {
+        ""
+    };
+    format!(
+        "[camera]\neye = [0, 1, 3.5]\nlook_at = [0, 1, 0]\nfov_y = 50\nresolution = [16, 12]\nmedium = \"fog\"\n\
+         [materials.white]\ntype = \"diffuse\"\nreflectance = [0.7, 0.7, 0.7]\n\
+         [materials.glass]\ntype = \"dielectric\"\nior = 1.3\n\
+         [media.fog]\ntype = \"homogeneous\"\nsigma_t = [0.3, 0.4, 0.5]\nalbedo = [0.9, 0.8, 0.7]\nphase = {{ type = \"hg\", g = 0.5 }}\nsample_emitters = {sample_emitters}\n\
+         [media.milk]\ntype = \"homogeneous\"\nsigma_t = [4, 4, 4]\nscale = 0.5\nalbedo = [0.95, 0.9, 0.8]\n\
+         [[shapes]]\ntype = \"box\"\nmaterial = \"white\"\nmin = [-2, 0, -2]\nmax = [2, 2.5, 4]\n\
+         [[shapes]]\ntype = \"sphere\"\nmaterial = \"glass\"\ncenter = [0.4, 0.6, 0]\nradius = 0.5\ninterior = \"milk\"\nexterior = \"fog\"\n\
+         [[shapes]]\ntype = \"quad\"\nmaterial = \"white\"\ncenter = [0, 2.45, 0]\nsize = [0.6, 0.6]\nfacing = \"-y\"\n\
+         emission = {{ radiance = [6, 6, 6] }}\n{point}"
+    )
+}
+
+#[test]
+fn next_event_estimation_through_media_agrees_with_phase_sampling() {
+    let dir = tempfile::tempdir().unwrap();
+    // The box's walls face inward only if seen from inside: a closed box seen from within.
+    let scene = load(dir.path(), "room.toml", &foggy_room(true, true)).unwrap();
+    let mis = image_mean(&scene, "path", "", 32);
+    let nee = image_mean(&scene, "path", "direct = \"nee\"", 32);
+    assert_agrees("path, direct = nee", nee, mis);
+    // Phase and BSDF sampling alone (no point light: only light sampling reaches it).
+    let lit = load(dir.path(), "room-area.toml", &foggy_room(true, false)).unwrap();
+    let quiet = load(dir.path(), "room-quiet.toml", &foggy_room(false, false)).unwrap();
+    let base = image_mean(&lit, "path", "", 32);
+    assert_agrees(
+        "path, direct = bsdf",
+        image_mean(&lit, "path", "direct = \"bsdf\"", 32),
+        base,
+    );
+    assert_agrees(
+        "path, sample_emitters = false",
+        image_mean(&quiet, "path", "", 32),
+        base,
+    );
+    let Err(err) = load(dir.path(), "room-dark.toml", &foggy_room(false, true)) else {
+        panic!("a medium without light sampling was accepted beside a point light");
+    };
+    assert_refused(&err.to_string(), &["media.fog.sample_emitters"]);
+    assert_bit_identical_across_threads(&scene, "path", 5);
+}
+
+#[test]
+fn strategies_without_media_refuse_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(dir.path(), "room.toml", &foggy_room(true, true)).unwrap();
+    for kind in [
+        "bdpt",
+        "light",
+        "photon_guided",
+        "photon_map",
+        "mlt",
+        "mps",
+        "vcm",
+        "ppg",
+        "sppm",
+    ] {
+        let s = photon_bench::strategy::build(kind, toml::Table::new()).unwrap();
+        let err = photon_bench::strategy::check_scene(&*s, &scene)
+            .unwrap_err()
+            .to_string();
+        assert_refused(&err, &[kind, "participating media", "\"fog\"", "path"]);
+    }
+}
+
+#[test]
+fn media_are_exported_to_mitsuba_and_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml_path = dir.path().join("room.toml");
+    std::fs::write(&toml_path, foggy_room(true, true)).unwrap();
+    let xml = dir.path().join("room.xml");
+    photon_bench::scene::export::export_file(&toml_path, &xml).unwrap();
+    let (a, _) = photon_bench::scene::load::load_scene_with_stats(&toml_path).unwrap();
+    let (b, _) = photon_bench::scene::load::load_scene_with_stats(&xml).unwrap();
+    let mut names_a: Vec<_> = a.media.iter().map(|m| (m.name.clone(), m.sigma_t, m.phase)).collect();
+    let mut names_b: Vec<_> = b.media.iter().map(|m| (m.name.clone(), m.sigma_t, m.phase)).collect();
+    names_a.sort_by(|x, y| x.0.cmp(&y.0));
+    names_b.sort_by(|x, y| x.0.cmp(&y.0));
+    assert_eq!(names_a, names_b);
+    assert_eq!(
+        a.camera_medium.map(|i| &a.media[i as usize].name),
+        b.camera_medium.map(|i| &b.media[i as usize].name)
+    );
+    let media_of = |s: &photon_bench::scene::Scene| -> Vec<(Option<String>, Option<String>)> {
+        let name = |i: Option<u32>| i.map(|i| s.media[i as usize].name.clone());
+        s.attrs.iter().map(|a| (name(a.interior), name(a.exterior))).collect()
+    };
+    assert_eq!(media_of(&a), media_of(&b));
+    // The same image, up to the noise of two renders.
+    assert_agrees(
+        "exported",
+        image_mean(&b, "path", "", 16),
+        image_mean(&a, "path", "", 16),
+    );
+}
+
+#[test]
+fn bad_media_are_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = furnace("{ type = \"isotropic\" }", true, [1.0, 1.0, 1.0]);
+    for (i, (from, to, expect)) in [
+        (
+            "interior = \"fog\"",
+            "interior = \"smoke\"",
+            vec!["shapes[0].interior", "\"smoke\"", "\"fog\""],
+        ),
+        (
+            "phase = { type = \"isotropic\" }",
+            "phase = { type = \"hg\", g = 1 }",
+            vec!["media.fog.phase.g", "(-1, 1)"],
+        ),
+        ("albedo = [1, 1, 1]", "albedo = [1.5, 1, 1]", vec!["media.fog.albedo"]),
+        ("sigma_t = [1, 1, 1]", "sigma_t = [-1, 1, 1]", vec!["media.fog.sigma_t"]),
+        (
+            "albedo = [1, 1, 1]",
+            "albedo = [1, 1, 1]\nalbedo_grid = { file = \"a.vol\" }",
+            vec!["media.fog", "not both"],
+        ),
+        (
+            "albedo = [1, 1, 1]",
+            "albedo_grid = { file = \"missing.vol\" }",
+            vec!["media.fog.albedo_grid.file", "missing.vol"],
+        ),
+        (
+            "type = \"null\"",
+            "type = \"mask\"\nopacity = 0.5\nbsdf = { type = \"null\" }",
+            vec!["materials.boundary.bsdf", "null"],
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let text = base.replacen(from, to, 1);
+        assert_ne!(text, base, "case {i}: {from:?} not found");
+        let Err(err) = load(dir.path(), &format!("bad{i}.toml"), &text) else {
+            panic!("case {i}: {to:?} was accepted");
+        };
+        let err = err.to_string();
+        assert_refused(&err, &expect);
+    }
+    let camera = base.replacen(
+        "resolution = [12, 12]\n",
+        "resolution = [12, 12]\nmedium = \"air\"\n",
+        1,
+    );
+    let Err(err) = load(dir.path(), "bad-camera.toml", &camera) else {
+        panic!("an unknown camera medium was accepted");
+    };
+    let err = err.to_string();
+    assert_refused(&err, &["camera.medium", "\"air\""]);
+}
