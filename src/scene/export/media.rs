@@ -12,16 +12,23 @@ pub(super) fn media_xml(desc: &SceneDesc, files: &Files, file: &str) -> Result<S
     let mut x = String::new();
     for (name, MediumDesc::Homogeneous(m)) in &desc.media {
         let _ = writeln!(x, "    <medium type=\"homogeneous\" id=\"{}\">", escape(name));
-        let _ = writeln!(
-            x,
-            "        <rgb name=\"sigma_t\" value=\"{}\"/>",
-            nums(&m.sigma_t.map_or([1.0; 3], |s| s.0))
-        );
-        let _ = writeln!(
-            x,
-            "        <float name=\"scale\" value=\"{}\"/>",
-            m.scale.unwrap_or(1.0)
-        );
+        // Mitsuba reads an <rgb> σ_t as a reflectance (each channel at most 1): a grey one is
+        // written as a float, a coloured one divided by its largest channel, which moves into
+        // `scale`.
+        let sigma_t = m.sigma_t.map_or([1.0; 3], |s| s.0);
+        let largest = sigma_t.iter().copied().fold(0.0, f64::max);
+        let scale = m.scale.unwrap_or(1.0);
+        if sigma_t.iter().all(|&s| s == sigma_t[0]) || largest == 0.0 {
+            let _ = writeln!(x, "        <float name=\"sigma_t\" value=\"{}\"/>", sigma_t[0]);
+            let _ = writeln!(x, "        <float name=\"scale\" value=\"{scale}\"/>");
+        } else {
+            let _ = writeln!(
+                x,
+                "        <rgb name=\"sigma_t\" value=\"{}\"/>",
+                nums(&sigma_t.map(|s| s / largest))
+            );
+            let _ = writeln!(x, "        <float name=\"scale\" value=\"{}\"/>", scale * largest);
+        }
         match &m.albedo_grid {
             Some(g) => {
                 let _ = writeln!(x, "        <volume name=\"albedo\" type=\"gridvolume\">");
