@@ -219,14 +219,14 @@ With default parameters; a strategy refuses a scene holding \
          (`strategy::check_scene`, before anything runs).
 
 \
-         | strategy | environment light | point and spot lights | directional light | smooth plastic | thin lens, orthographic | opacity masks | layered (coated) models |\n\
-         |---|---|---|---|---|---|---|---|\n",
+         | strategy | environment light | point and spot lights | directional light | smooth plastic | thin lens, orthographic | opacity masks | layered (coated) models | participating media |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
     );
     let mark = |yes: bool| if yes { "yes" } else { "no" };
     for r in registry.iter() {
         let Ok(s) = (r.build)(toml::Table::new()) else { continue };
         out += &format!(
-            "| `{}` | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| `{}` | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.kind,
             mark(s.handles_environment()),
             mark(s.handles_point_lights()),
@@ -235,6 +235,7 @@ With default parameters; a strategy refuses a scene holding \
             mark(s.handles_lens_camera()),
             mark(s.handles_opacity_masks()),
             mark(s.handles_stochastic_bsdfs()),
+            mark(s.handles_media()),
         );
     }
     out.push('\n');
