@@ -101,7 +101,7 @@ impl Scatterer<'_> {
 /// The transmittance of `ray` up to its `t_max`, starting in `medium`: 0 when an opaque surface
 /// blocks it, else the product of e^{−σ_t ℓ} over the media it crosses, changing medium at the
 /// boundaries it passes.
-fn transmittance(scene: &Scene, mut medium: Option<u32>, ray: &Ray) -> Vec3 {
+fn transmittance(scene: &Scene, mut medium: Option<u32>, ray: &Ray, rng: &mut Rng) -> Vec3 {
     let mut tr = Vec3::ONE;
     let end = ray.at(ray.t_max);
     let mut segment = *ray;
@@ -109,7 +109,7 @@ fn transmittance(scene: &Scene, mut medium: Option<u32>, ray: &Ray) -> Vec3 {
         let hit = scene.intersect_any(&segment);
         let length = hit.as_ref().map_or(segment.t_max, |h| h.t);
         if let Some(m) = medium {
-            tr *= scene.media[m as usize].transmittance(length);
+            tr *= scene.media[m as usize].transmittance_along(segment.o, segment.d, length, rng);
         }
         let Some(hit) = hit else { return tr };
         if tr == Vec3::ZERO || !scene.passes_through(&hit, segment.d) {
@@ -199,7 +199,7 @@ fn direct(
     let mut shadow = v.shadow_ray(wi);
     // Short of the light's point (a light on a surface is not hidden by that surface).
     shadow.t_max = dist * (1.0 - 1e-4);
-    let tr = transmittance(scene, medium_toward(scene, v, medium, wi), &shadow);
+    let tr = transmittance(scene, medium_toward(scene, v, medium, wi), &shadow, rng);
     if tr == Vec3::ZERO {
         return Vec3::ZERO;
     }
@@ -238,7 +238,7 @@ pub fn trace(scene: &Scene, params: &Walk, sampling: BsdfSampling, mut ray: Ray,
         if let Some(m) = medium {
             let med = &scene.media[m as usize];
             let t_hit = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-            match med.sample_flight(ray.o, ray.d, t_hit, hero, rng.uniform()) {
+            match med.sample_flight(ray.o, ray.d, t_hit, hero, rng) {
                 Flight::Pass { weight, ratio: r } => {
                     beta *= weight;
                     ratio *= r;

@@ -357,6 +357,23 @@ pub struct SceneDesc {
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum MediumDesc {
     Homogeneous(HomogeneousDesc),
+    Heterogeneous(HeterogeneousDesc),
+}
+
+/// A medium whose extinction varies in space (Mitsuba's `heterogeneous`): σ_t(x) = `scale` ·
+/// the grid's value at x inside the world box of the grid's unit cube, vacuum outside it.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeterogeneousDesc {
+    /// The extinction grid (1 or 3 channels, each value >= 0).
+    pub sigma_t_grid: GridDesc,
+    /// Multiplies the grid (default 1), > 0.
+    pub scale: Option<f64>,
+    /// As for `homogeneous`.
+    pub albedo: Option<Triple>,
+    pub albedo_grid: Option<GridDesc>,
+    pub phase: Option<PhaseDesc>,
+    pub sample_emitters: Option<bool>,
 }
 
 /// A medium of constant extinction (Mitsuba's `homogeneous`).

@@ -3,80 +3,65 @@
 
 use super::{Files, escape, matrix, nums};
 use crate::error::Result;
-use crate::scene::desc::{MediumDesc, PhaseDesc, SceneDesc};
+use crate::scene::desc::{GridDesc, MediumDesc, PhaseDesc, SceneDesc};
 use std::fmt::Write;
 
 /// Every medium of `desc` as a top-level element (before the sensor and the shapes that refer
 /// to it); a grid's file keeps its place ([`Files::written`]) and its transform.
 pub(super) fn media_xml(desc: &SceneDesc, files: &Files, file: &str) -> Result<String> {
     let mut x = String::new();
-    for (name, MediumDesc::Homogeneous(m)) in &desc.media {
-        let _ = writeln!(x, "    <medium type=\"homogeneous\" id=\"{}\">", escape(name));
-        // Mitsuba reads an <rgb> σ_t as a reflectance (each channel at most 1): a grey one is
-        // written as a float, a coloured one divided by its largest channel, which moves into
-        // `scale`.
-        let sigma_t = m.sigma_t.map_or([1.0; 3], |s| s.0);
-        let largest = sigma_t.iter().copied().fold(0.0, f64::max);
-        let scale = m.scale.unwrap_or(1.0);
-        if sigma_t.iter().all(|&s| s == sigma_t[0]) || largest == 0.0 {
-            let _ = writeln!(x, "        <float name=\"sigma_t\" value=\"{}\"/>", sigma_t[0]);
-            let _ = writeln!(x, "        <float name=\"scale\" value=\"{scale}\"/>");
-        } else {
-            let _ = writeln!(
-                x,
-                "        <rgb name=\"sigma_t\" value=\"{}\"/>",
-                nums(&sigma_t.map(|s| s / largest))
-            );
-            let _ = writeln!(x, "        <float name=\"scale\" value=\"{}\"/>", scale * largest);
-        }
-        match &m.albedo_grid {
-            Some(g) => {
-                let _ = writeln!(x, "        <volume name=\"albedo\" type=\"gridvolume\">");
-                let _ = writeln!(
-                    x,
-                    "            <string name=\"filename\" value=\"{}\"/>",
-                    escape(&files.written(&g.file).display().to_string())
-                );
-                let filter = g.filter.as_deref().unwrap_or("trilinear");
-                let _ = writeln!(
-                    x,
-                    "            <string name=\"filter_type\" value=\"{}\"/>",
-                    escape(filter)
-                );
-                let _ = writeln!(
-                    x,
-                    "            <string name=\"wrap_mode\" value=\"{}\"/>",
-                    escape(g.wrap.as_deref().unwrap_or("clamp"))
-                );
-                let _ = writeln!(
-                    x,
-                    "            <boolean name=\"use_grid_bbox\" value=\"{}\"/>",
-                    g.use_grid_bbox.unwrap_or(false)
-                );
-                if let Some(t) = &g.to_world {
-                    let xf = crate::scene::load::shape_transform(
-                        file,
-                        &format!("media.{name}.albedo_grid.to_world"),
-                        Some(t),
-                    )?;
-                    x.push_str(&matrix(xf));
+    for (name, medium) in &desc.media {
+        let (albedo, albedo_grid, phase, sample_emitters) = match medium {
+            MediumDesc::Homogeneous(m) => (m.albedo, &m.albedo_grid, m.phase, m.sample_emitters),
+            MediumDesc::Heterogeneous(m) => (m.albedo, &m.albedo_grid, m.phase, m.sample_emitters),
+        };
+        match medium {
+            MediumDesc::Homogeneous(m) => {
+                let _ = writeln!(x, "    <medium type=\"homogeneous\" id=\"{}\">", escape(name));
+                // Mitsuba reads an <rgb> σ_t as a reflectance (each channel at most 1): a grey
+                // one is written as a float, a coloured one divided by its largest channel,
+                // which moves into `scale`.
+                let sigma_t = m.sigma_t.map_or([1.0; 3], |s| s.0);
+                let largest = sigma_t.iter().copied().fold(0.0, f64::max);
+                let scale = m.scale.unwrap_or(1.0);
+                if sigma_t.iter().all(|&s| s == sigma_t[0]) || largest == 0.0 {
+                    let _ = writeln!(x, "        <float name=\"sigma_t\" value=\"{}\"/>", sigma_t[0]);
+                    let _ = writeln!(x, "        <float name=\"scale\" value=\"{scale}\"/>");
+                } else {
+                    let _ = writeln!(
+                        x,
+                        "        <rgb name=\"sigma_t\" value=\"{}\"/>",
+                        nums(&sigma_t.map(|s| s / largest))
+                    );
+                    let _ = writeln!(x, "        <float name=\"scale\" value=\"{}\"/>", scale * largest);
                 }
-                let _ = writeln!(x, "        </volume>");
             }
+            MediumDesc::Heterogeneous(m) => {
+                let _ = writeln!(x, "    <medium type=\"heterogeneous\" id=\"{}\">", escape(name));
+                x.push_str(&grid_xml("sigma_t", &m.sigma_t_grid, files, file, name)?);
+                let _ = writeln!(
+                    x,
+                    "        <float name=\"scale\" value=\"{}\"/>",
+                    m.scale.unwrap_or(1.0)
+                );
+            }
+        }
+        match albedo_grid {
+            Some(g) => x.push_str(&grid_xml("albedo", g, files, file, name)?),
             None => {
                 let _ = writeln!(
                     x,
                     "        <rgb name=\"albedo\" value=\"{}\"/>",
-                    nums(&m.albedo.map_or([0.75; 3], |a| a.0))
+                    nums(&albedo.map_or([0.75; 3], |a| a.0))
                 );
             }
         }
         let _ = writeln!(
             x,
             "        <boolean name=\"sample_emitters\" value=\"{}\"/>",
-            m.sample_emitters.unwrap_or(true)
+            sample_emitters.unwrap_or(true)
         );
-        match m.phase {
+        match phase {
             None | Some(PhaseDesc::Isotropic(_)) => {
                 let _ = writeln!(x, "        <phase type=\"isotropic\"/>");
             }
@@ -102,4 +87,32 @@ pub(super) fn medium_refs(refs: &[(&str, Option<&str>)], indent: &str) -> String
         }
     }
     x
+}
+
+/// A grid as Mitsuba's `<volume type="gridvolume" name>`, its file where the scene names it.
+fn grid_xml(param: &str, g: &GridDesc, files: &Files, file: &str, medium: &str) -> Result<String> {
+    let mut x = String::new();
+    let _ = writeln!(x, "        <volume name=\"{param}\" type=\"gridvolume\">");
+    let written = files.written(&g.file).display().to_string();
+    let _ = writeln!(
+        x,
+        "            <string name=\"filename\" value=\"{}\"/>",
+        escape(&written)
+    );
+    let filter = g.filter.as_deref().unwrap_or("trilinear");
+    let _ = writeln!(
+        x,
+        "            <string name=\"filter_type\" value=\"{}\"/>",
+        escape(filter)
+    );
+    let wrap = g.wrap.as_deref().unwrap_or("clamp");
+    let _ = writeln!(x, "            <string name=\"wrap_mode\" value=\"{}\"/>", escape(wrap));
+    let bbox = g.use_grid_bbox.unwrap_or(false);
+    let _ = writeln!(x, "            <boolean name=\"use_grid_bbox\" value=\"{bbox}\"/>");
+    if let Some(t) = &g.to_world {
+        let field = format!("media.{medium}.{param}_grid.to_world");
+        x.push_str(&matrix(crate::scene::load::shape_transform(file, &field, Some(t))?));
+    }
+    let _ = writeln!(x, "        </volume>");
+    Ok(x)
 }

@@ -6,8 +6,8 @@ use super::*;
 use crate::error::Result;
 use crate::medium::grid::GridVolume;
 use crate::medium::phase::Phase;
-use crate::medium::{Albedo, Medium};
-use crate::scene::desc::{Fixed, GridDesc, MediumDesc, PhaseDesc};
+use crate::medium::{Albedo, Density, Medium};
+use crate::scene::desc::{self, Fixed, GridDesc, MediumDesc, PhaseDesc};
 use crate::texture::{Filter, Wrap};
 use std::collections::BTreeMap;
 
@@ -26,10 +26,11 @@ pub(super) fn media(
 ) -> Result<(Vec<Medium>, BTreeMap<String, u32>)> {
     let mut out = Vec::with_capacity(descs.len());
     let mut index = BTreeMap::new();
-    for (name, MediumDesc::Homogeneous(d)) in descs {
+    for (name, d) in descs {
         let field = format!("media.{}", key_string(name));
         let f = |key: &str| format!("{field}.{key}");
-        let sigma_t = d.sigma_t.map_or([1.0; 3], |t| t.0);
+        let d = Common::of(d);
+        let sigma_t = d.sigma_t;
         if !sigma_t.iter().all(|&s| (0.0..=MAX_SIGMA_T).contains(&s)) {
             return Err(ctx.err(
                 &f("sigma_t"),
@@ -55,7 +56,14 @@ pub(super) fn media(
             (Some(_), Some(_)) => {
                 return Err(ctx.err(&field, "expected `albedo` or `albedo_grid`, not both"));
             }
-            (_, Some(g)) => Albedo::Grid(grid(ctx, dir, &f("albedo_grid"), g, hashed, files_read)?),
+            (_, Some(g)) => Albedo::Grid(grid(
+                ctx,
+                dir,
+                &f("albedo_grid"),
+                g,
+                (1.0, "albedos"),
+                (hashed, files_read),
+            )?),
             (a, None) => {
                 let a = a.map_or([0.75; 3], |a| a.0);
                 ctx.unit_rgb(&f("albedo"), Fixed(a))?;
@@ -74,10 +82,26 @@ pub(super) fn media(
                 Phase::HenyeyGreenstein { g: hg.g as f32 }
             }
         };
+        let density = match d.density {
+            Some(g) => {
+                let limit = (MAX_SIGMA_T / scale) as f32;
+                let grid = grid(
+                    ctx,
+                    dir,
+                    &f("sigma_t_grid"),
+                    g,
+                    (limit, "extinctions"),
+                    (hashed, files_read),
+                )?;
+                Some(Density::new(grid, scale as f32))
+            }
+            None => None,
+        };
         index.insert(name.clone(), out.len() as u32);
         out.push(Medium {
             name: name.clone(),
             sigma_t: rgb(Fixed(sigma_t.map(|s| s * scale))),
+            density,
             albedo,
             phase,
             sample_emitters: d.sample_emitters.unwrap_or(true),
@@ -86,14 +110,52 @@ pub(super) fn media(
     Ok((out, index))
 }
 
-/// Reads a grid of albedos: a `.vol` file whose every value lies in [0, 1].
+/// What both kinds of media share, read off either description.
+struct Common<'a> {
+    /// A homogeneous medium's σ_t (a heterogeneous one's is `density`).
+    sigma_t: [f64; 3],
+    density: Option<&'a GridDesc>,
+    scale: Option<f64>,
+    albedo: Option<desc::Triple>,
+    albedo_grid: &'a Option<GridDesc>,
+    phase: Option<PhaseDesc>,
+    sample_emitters: Option<bool>,
+}
+
+impl<'a> Common<'a> {
+    fn of(d: &'a MediumDesc) -> Self {
+        match d {
+            MediumDesc::Homogeneous(h) => Common {
+                sigma_t: h.sigma_t.map_or([1.0; 3], |t| t.0),
+                density: None,
+                scale: h.scale,
+                albedo: h.albedo,
+                albedo_grid: &h.albedo_grid,
+                phase: h.phase,
+                sample_emitters: h.sample_emitters,
+            },
+            MediumDesc::Heterogeneous(h) => Common {
+                sigma_t: [0.0; 3],
+                density: Some(&h.sigma_t_grid),
+                scale: h.scale,
+                albedo: h.albedo,
+                albedo_grid: &h.albedo_grid,
+                phase: h.phase,
+                sample_emitters: h.sample_emitters,
+            },
+        }
+    }
+}
+
+/// Reads a grid: a `.vol` file whose every value lies in [0, `max`] (`what` names the values
+/// in a message).
 fn grid(
     ctx: &Ctx,
     dir: &std::path::Path,
     field: &str,
     g: &GridDesc,
-    hashed: &mut Vec<Vec<u8>>,
-    files_read: &mut Vec<std::path::PathBuf>,
+    (max, what): (f32, &str),
+    (hashed, files_read): (&mut Vec<Vec<u8>>, &mut Vec<std::path::PathBuf>),
 ) -> Result<GridVolume> {
     let filter = match g.filter.as_deref() {
         None | Some("trilinear") => Filter::Bilinear,
@@ -125,11 +187,12 @@ fn grid(
     let volume = GridVolume::from_vol_bytes(&bytes, filter, wrap, to_world, g.use_grid_bbox.unwrap_or(false))
         .map_err(|e| ctx.err(&format!("{field}.file"), format!("{shown}: {e}")))?;
     let min = volume.min();
-    if !(min >= 0.0 && volume.max() <= 1.0) {
+    if !(min >= 0.0 && volume.max() <= max) {
         return Err(ctx.err(
             &format!("{field}.file"),
             format!(
-                "{shown}: expected albedos in [0, 1], got values in [{}, {}]",
+                "{shown}: expected {what} in [0, {}], got values in [{}, {}]",
+                num(max as f64),
                 num(min as f64),
                 num(volume.max() as f64)
             ),

@@ -1,41 +1,52 @@
-//! `<medium>` elements (Mitsuba 3's `homogeneous`, with its `phase` and a `gridvolume` or
-//! `constvolume` albedo) and the `interior` / `exterior` / sensor `medium` references to them.
+//! `<medium>` elements (Mitsuba 3's `homogeneous` and `heterogeneous`, with their `phase`, a
+//! `gridvolume` or `constvolume` albedo and a heterogeneous medium's `gridvolume` σ_t) and the
+//! `interior` / `exterior` / sensor `medium` references to them.
 
 use super::*;
 use crate::error::Result;
-use crate::scene::desc::{self, Fixed, GridDesc, HomogeneousDesc, MediumDesc, PhaseDesc};
+use crate::scene::desc::{self, Fixed, GridDesc, HeterogeneousDesc, HomogeneousDesc, MediumDesc, PhaseDesc};
 use roxmltree::Node;
 
 impl<'a, 'i> Reader<'a, 'i> {
     /// `<medium type="homogeneous">`: σ_t (a colour; a spectrally flat one when given as a
-    /// float), `scale`, `albedo` (a colour or a nested `<volume>`), `sample_emitters`, a nested
+    /// float; a `heterogeneous` medium's is a nested `<volume name="sigma_t">`), `scale`, `albedo` (a colour or a nested `<volume>`), `sample_emitters`, a nested
     /// `<phase>`. `has_spectral_extinction` only chooses how Mitsuba samples distances (the
     /// expectation is the same) and is read without effect.
     pub(super) fn medium(&mut self, n: Node<'a, 'i>) -> Result<MediumDesc> {
         let kind = self.required(n, "type")?;
-        if kind != "homogeneous" {
+        if kind != "homogeneous" && kind != "heterogeneous" {
             return Err(self.err(
                 n,
-                "unsupported medium (photon-bench renders homogeneous media; heterogeneous ones are not read yet)",
+                "unsupported medium (photon-bench reads homogeneous and heterogeneous)",
             ));
         }
         let mut o = self.obj(n)?;
-        let sigma_t = self.unbounded_colour(&mut o, "sigma_t")?;
+        let named_volume = |o: &Obj, name: &str| {
+            o.children
+                .iter()
+                .any(|c| c.has_tag_name("volume") && c.attribute("name") == Some(name))
+        };
+        // Nested <volume>s first: the colour reader refuses nested objects.
+        let sigma_t = if named_volume(&o, "sigma_t") {
+            None
+        } else {
+            self.unbounded_colour(&mut o, "sigma_t")?
+        };
+        if kind == "heterogeneous" && sigma_t.is_some() {
+            return Err(self.err(
+                n,
+                "a heterogeneous medium's sigma_t must be a <volume type=\"gridvolume\"> (a constant one is a homogeneous medium)",
+            ));
+        }
         let scale = self.float(&mut o, "scale")?;
         let sample_emitters = self.boolean(&mut o, "sample_emitters")?;
         self.boolean(&mut o, "has_spectral_extinction")?;
-        // A nested <volume name="albedo"> first: the colour reader refuses nested objects.
-        let volume_albedo = o
-            .children
-            .iter()
-            .any(|c| c.has_tag_name("volume") && c.attribute("name") == Some("albedo"));
-        let mut albedo = if volume_albedo {
+        let mut albedo = if named_volume(&o, "albedo") {
             None
         } else {
             self.colour(&mut o, "albedo")?
         };
-        let mut albedo_grid = None;
-        let mut phase = None;
+        let (mut albedo_grid, mut sigma_t_grid, mut phase) = (None, None, None);
         for c in o.children.clone() {
             match (c.tag_name().name(), c.attribute("name")) {
                 ("phase", _) if phase.is_some() => return Err(self.err(c, "a second phase function for this medium")),
@@ -44,16 +55,45 @@ impl<'a, 'i> Reader<'a, 'i> {
                     Volume::Constant(a) => albedo = Some(a),
                     Volume::Grid(g) => albedo_grid = Some(g),
                 },
+                ("volume", Some("sigma_t")) if kind == "heterogeneous" && sigma_t_grid.is_none() => {
+                    match self.volume(c)? {
+                        Volume::Grid(g) => sigma_t_grid = Some(g),
+                        Volume::Constant(_) => {
+                            return Err(self.err(
+                                c,
+                                "a heterogeneous medium's sigma_t must be a gridvolume (a constant one is a homogeneous medium)",
+                            ));
+                        }
+                    }
+                }
                 ("volume", Some("sigma_t")) => {
                     return Err(self.err(
                         c,
                         "a homogeneous medium's sigma_t is a constant (a spatially varying one makes a heterogeneous medium)",
                     ));
                 }
-                _ => return Err(self.err(c, "unsupported element in a medium (phase, volume name=\"albedo\")")),
+                _ => {
+                    return Err(self.err(
+                        c,
+                        "unsupported element in a medium (phase, volume name=\"albedo\" or \"sigma_t\")",
+                    ));
+                }
             }
         }
         self.finish(&o)?;
+        if kind == "heterogeneous" {
+            let Some(sigma_t_grid) = sigma_t_grid else {
+                return Err(self.err(n, "expected <volume name=\"sigma_t\" type=\"gridvolume\">"));
+            };
+            return Ok(MediumDesc::Heterogeneous(HeterogeneousDesc {
+                sigma_t_grid,
+                scale,
+                albedo,
+                albedo_grid,
+                phase,
+                sample_emitters,
+            }));
+        }
         Ok(MediumDesc::Homogeneous(HomogeneousDesc {
             sigma_t,
             scale,
