@@ -353,3 +353,32 @@ fn heterogeneous_smoke_conserves_energy_and_its_estimators_agree() {
         base,
     );
 }
+
+/// A heterogeneous medium's grid, scale and box survive the export to Mitsuba and the way back.
+#[test]
+fn heterogeneous_media_are_exported_and_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    write_vol(&dir.path().join("smoke.vol"), [4, 3, 2], 1, |x, y, z| {
+        vec![x + 2.0 * y + 3.0 * z]
+    });
+    let text = furnace("{ type = \"hg\", g = 0.3 }", true, [1.0, 1.0, 1.0])
+        .replace("interior = \"fog\"", "interior = \"smoke\"")
+        + "[media.smoke]\ntype = \"heterogeneous\"\nscale = 2.5\nalbedo = [0.5, 0.6, 0.7]\n\
+           sigma_t_grid = { file = \"smoke.vol\", filter = \"nearest\", to_world = [{ scale = 2 }, { translate = [-1, -1, -1] }] }\n";
+    let toml_path = dir.path().join("smoke.toml");
+    std::fs::write(&toml_path, text).unwrap();
+    let xml = dir.path().join("smoke.xml");
+    photon_bench::scene::export::export_file(&toml_path, &xml).unwrap();
+    let (a, _) = photon_bench::scene::load::load_scene_with_stats(&toml_path).unwrap();
+    let (b, _) = photon_bench::scene::load::load_scene_with_stats(&xml).unwrap();
+    let smoke = |s: &photon_bench::scene::Scene| s.media.iter().find(|m| m.name == "smoke").unwrap().clone();
+    let (da, db) = (smoke(&a).density.unwrap(), smoke(&b).density.unwrap());
+    assert_eq!((da.scale, da.majorant), (db.scale, db.majorant));
+    assert!(
+        (da.bounds.0 - db.bounds.0).abs().max_element() < 1e-6
+            && (da.bounds.1 - db.bounds.1).abs().max_element() < 1e-6
+    );
+    for p in [glam::Vec3::new(0.3, -0.2, 0.1), glam::Vec3::new(-0.9, 0.8, -0.4)] {
+        assert_eq!(da.sigma_t(p), db.sigma_t(p), "at {p}");
+    }
+}
