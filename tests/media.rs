@@ -86,14 +86,7 @@ fn an_absorbing_slab_transmits_the_closed_form() {
     let text = text.replacen("fov_y = 30", "fov_y = 1", 1);
     let scene = load(dir.path(), "slab.toml", &text).unwrap();
     let img = render(&scene, "path", "", 256, 1);
-    for (c, s) in sigma.iter().enumerate() {
-        let (mean, se) = mean_and_error(&img, c);
-        let expected = f64::from(-s * 0.5).exp();
-        assert!(
-            (mean - expected).abs() < 4.0 * se && se < 0.01 * expected,
-            "channel {c}: {mean} ± {se} vs e^(-σ·0.5) = {expected}"
-        );
-    }
+    assert_transmits(&img, sigma, 0.5);
 }
 
 /// A room with a fog box lit by a small area light and a point light, a glass ball with a
@@ -123,18 +116,12 @@ fn next_event_estimation_through_media_agrees_with_phase_sampling() {
     let dir = tempfile::tempdir().unwrap();
     // The box's walls face inward only if seen from inside: a closed box seen from within.
     let scene = load(dir.path(), "room.toml", &foggy_room(true, true)).unwrap();
-    let mis = image_mean(&scene, "path", "", 32);
-    let nee = image_mean(&scene, "path", "direct = \"nee\"", 32);
-    assert_agrees("path, direct = nee", nee, mis);
+    let mis = assert_techniques_agree(&scene, "point and area light", &["nee"]);
     // Phase and BSDF sampling alone (no point light: only light sampling reaches it).
     let lit = load(dir.path(), "room-area.toml", &foggy_room(true, false)).unwrap();
+    let base = assert_techniques_agree(&lit, "area light", &["nee", "bsdf"]);
+    assert!(mis.0 > base.0, "the point light adds light");
     let quiet = load(dir.path(), "room-quiet.toml", &foggy_room(false, false)).unwrap();
-    let base = image_mean(&lit, "path", "", 32);
-    assert_agrees(
-        "path, direct = bsdf",
-        image_mean(&lit, "path", "direct = \"bsdf\"", 32),
-        base,
-    );
     assert_agrees(
         "path, sample_emitters = false",
         image_mean(&quiet, "path", "", 32),
@@ -302,14 +289,7 @@ fn a_heterogeneous_slab_with_a_constant_grid_transmits_the_closed_form() {
     .replacen("fov_y = 30", "fov_y = 1", 1);
     let scene = load(dir.path(), "slab.toml", &text).unwrap();
     let img = render(&scene, "path", "", 1024, 1);
-    for (c, s) in sigma.iter().enumerate() {
-        let (mean, se) = mean_and_error(&img, c);
-        let expected = f64::from(-s * 0.5).exp();
-        assert!(
-            (mean - expected).abs() < 4.0 * se && se < 0.01 * expected,
-            "channel {c}: {mean} ± {se} vs e^(-σ·0.5) = {expected}"
-        );
-    }
+    assert_transmits(&img, sigma, 0.5);
 }
 
 /// A ball of white heterogeneous smoke (density rising along x and y, a dense core) in the
@@ -341,17 +321,7 @@ fn heterogeneous_smoke_conserves_energy_and_its_estimators_agree() {
             .replace("albedo = [1, 1, 1]", "albedo = [0.8, 0.7, 0.6]")
             .replace("translate = [-1, -1, -1]", "translate = [-0.6, -0.4, -1]");
     let scene = load(dir.path(), "room.toml", &room).unwrap();
-    let base = image_mean(&scene, "path", "", 32);
-    assert_agrees(
-        "heterogeneous, direct = bsdf",
-        image_mean(&scene, "path", "direct = \"bsdf\"", 32),
-        base,
-    );
-    assert_agrees(
-        "heterogeneous, direct = nee",
-        image_mean(&scene, "path", "direct = \"nee\"", 32),
-        base,
-    );
+    assert_techniques_agree(&scene, "heterogeneous", &["nee", "bsdf"]);
 }
 
 /// A heterogeneous medium's grid, scale and box survive the export to Mitsuba and the way back.
@@ -380,5 +350,33 @@ fn heterogeneous_media_are_exported_and_read_back() {
     );
     for p in [glam::Vec3::new(0.3, -0.2, 0.1), glam::Vec3::new(-0.9, 0.8, -0.4)] {
         assert_eq!(da.sigma_t(p), db.sigma_t(p), "at {p}");
+    }
+}
+
+/// Asserts that `path` with each of `directs` (`direct = "nee"`, `"bsdf"`) agrees with its
+/// default MIS on `scene`; returns the MIS image mean and its standard error.
+fn assert_techniques_agree(scene: &photon_bench::scene::Scene, what: &str, directs: &[&str]) -> (f64, f64) {
+    let base = image_mean(scene, "path", "", 32);
+    for direct in directs {
+        let params = format!("direct = \"{direct}\"");
+        assert_agrees(
+            &format!("{what}, direct = {direct}"),
+            image_mean(scene, "path", &params, 32),
+            base,
+        );
+    }
+    base
+}
+
+/// Asserts that every channel of `img` averages e^{−σ_c d} within 4 standard errors (and that
+/// the error is below 1 % of it).
+fn assert_transmits(img: &photon_bench::film::Image, sigma: [f32; 3], d: f32) {
+    for (c, s) in sigma.iter().enumerate() {
+        let (mean, se) = mean_and_error(img, c);
+        let expected = f64::from(-s * d).exp();
+        assert!(
+            (mean - expected).abs() < 4.0 * se && se < 0.01 * expected,
+            "channel {c}: {mean} ± {se} vs e^(-σ d) = {expected}"
+        );
     }
 }

@@ -1,5 +1,5 @@
 //! Participating media: light scattered and absorbed between surfaces, for the volumetric walk
-//! of `path` ([`crate::strategy::path_media`]).
+//! of `path` ([`crate::strategy::path::media`]).
 //!
 //! A medium fills the inside or the outside of closed surfaces (Mitsuba 3's `interior` and
 //! `exterior` references on a shape; the camera's `medium`). We render Mitsuba's

@@ -18,7 +18,6 @@ pub mod light;
 pub mod mlt;
 pub mod mps;
 pub mod path;
-pub mod path_media;
 pub mod photon_guided;
 pub mod photon_map;
 pub mod ppg;
@@ -77,7 +76,7 @@ pub struct Capabilities {
     /// plain BSDF sampling, and not for Metropolis proposals.
     pub stochastic_bsdfs: bool,
     /// Participating media ([`crate::medium`]): only `path` renders them (its volumetric walk,
-    /// [`crate::strategy::path_media`]); not part of [`Capabilities::ALL`], so that a strategy
+    /// [`crate::strategy::path::media`]); not part of [`Capabilities::ALL`], so that a strategy
     /// claims them only by name.
     pub media: bool,
 }

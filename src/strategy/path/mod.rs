@@ -12,6 +12,8 @@
 //! ignores occlusion, so it is not never-worse. The old defaults also keep every committed
 //! result and the regression baseline bit-identical; experiments opt in.
 
+pub mod media;
+
 use super::{Declared, Strategy, render_pixels};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::error::Result;
@@ -423,7 +425,7 @@ pub fn radiance_traced(scene: &Scene, params: &PathParams, ray: Ray, rng: &mut R
     };
     if !scene.media.is_empty() {
         // Scenes with participating media take the volumetric walk (its rays are not tallied).
-        return super::path_media::trace(scene, &walk, params.bsdf_sampling, ray, rng);
+        return media::trace(scene, &walk, params.bsdf_sampling, ray, rng);
     }
     trace(scene, &walk, &params.bsdf_sampling, ray, rng, tally)
 }

@@ -1,9 +1,9 @@
 //! The volumetric walk of `path`: path tracing in scenes with participating media
 //! ([`crate::medium`]), used by `path` whenever a scene has media (Mitsuba 3's `volpath`
-//! integrator; scenes of surfaces only keep [`super::path::trace`], bit for bit).
+//! integrator; scenes of surfaces only keep [`super::trace`], bit for bit).
 //!
 //! Each segment of a path first samples a free flight in the medium it travels in
-//! ([`Medium::sample_flight`]); a collision before the next surface is a scattering vertex
+//! ([`crate::medium::Medium::sample_flight`]); a collision before the next surface is a scattering vertex
 //! whose direction is drawn from the phase function, otherwise the segment reaches the surface
 //! as in the surface walk. Emitters are found as in `path`: next-event estimation at every
 //! non-delta vertex — surfaces, and points in media whose `sample_emitters` is set — combined
@@ -18,7 +18,7 @@
 //! minus one, as for `path`); Russian roulette follows [`Walk::roulette`] after `rr_depth`
 //! events (the albedo variant uses σ_s / σ_t's largest channel at a medium vertex).
 
-use super::path::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, receiver};
+use super::{BsdfSampling, Direct, DirectionSampler, Roulette, Walk, receiver};
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::geometry::{Ray, spawn_ray};
 use crate::light::{PointPdf, Receiver};
