@@ -268,7 +268,7 @@ pub fn trace(scene: &Scene, params: &Walk, sampling: BsdfSampling, mut ray: Ray,
                     prev_lights = lights;
                     travelled = 0.0;
                     depth += 1;
-                    let albedo = med.albedo_at(p).max_element();
+                    let albedo = || med.albedo_at(p).max_element();
                     if !survives_roulette(params, depth, (&mut beta, ratio), albedo, rng) {
                         break;
                     }
@@ -340,7 +340,7 @@ pub fn trace(scene: &Scene, params: &Walk, sampling: BsdfSampling, mut ray: Ray,
             medium = next;
         }
         depth += 1;
-        if !survives_roulette(params, depth, (&mut beta, ratio), vertex_weight.max_element(), rng) {
+        if !survives_roulette(params, depth, (&mut beta, ratio), || vertex_weight.max_element(), rng) {
             break;
         }
         ray = spawn_ray(hit.p, hit.ng, wi);
@@ -365,7 +365,13 @@ fn emission_weight(params: &Walk, prev_specular: bool, prev_pdf_w: f32, pdf_ligh
 /// Russian roulette after `rr_depth` events: survive with q = min(0.95, the path estimate's or
 /// the vertex albedo's largest channel) and carry 1/q. False when the path ends.
 #[inline]
-fn survives_roulette(params: &Walk, depth: u32, (beta, ratio): (&mut Vec3, Vec3), albedo: f32, rng: &mut Rng) -> bool {
+fn survives_roulette(
+    params: &Walk,
+    depth: u32,
+    (beta, ratio): (&mut Vec3, Vec3),
+    albedo: impl FnOnce() -> f32,
+    rng: &mut Rng,
+) -> bool {
     if *beta == Vec3::ZERO {
         return false;
     }
@@ -374,7 +380,7 @@ fn survives_roulette(params: &Walk, depth: u32, (beta, ratio): (&mut Vec3, Vec3)
     }
     let q = match params.roulette {
         Roulette::Throughput => spectral_estimate(*beta, ratio).max_element(),
-        Roulette::Albedo => albedo,
+        Roulette::Albedo => albedo(),
     }
     .min(0.95);
     if rng.uniform() >= q {
