@@ -118,6 +118,25 @@ pub fn spawn_ray(p: Vec3, ng: Vec3, d: Vec3) -> Ray {
     Ray::new(offset_ray_origin(p, ng, d), d)
 }
 
+/// The rest of a finite segment after it passed through the surface at `p` (geometric normal
+/// `ng`) along `d`, up to the segment's end point `end`: from the offset origin *aimed at `end`*,
+/// with `t_max` in the units of `d` (the direction is `d` turned by the offset's few ULPs, and
+/// as long). A ray parallel to `d` would carry the offset's sideways shift to the far end, where
+/// a surface met at a grazing angle — the emitter a shadow ray stops just short of — is struck
+/// before `end`: shadow rays past a `null` medium boundary or a mask hole then lost the light of
+/// an area light just beyond it (docs/design.md, "2026-11-28: shadow rays past a passed
+/// surface"). `None` when `end` lies behind the offset origin.
+#[inline]
+pub fn spawn_ray_to_end(p: Vec3, ng: Vec3, d: Vec3, end: Vec3) -> Option<Ray> {
+    let o = offset_ray_origin(p, ng, d);
+    let t = (end - o).dot(d) / d.length_squared();
+    (t > 0.0).then(|| Ray {
+        o,
+        d: (end - o) / t,
+        t_max: t,
+    })
+}
+
 /// A shadow ray from surface point `p` (normal `ng`) to surface point `q` (normal `ng_q`);
 /// both ends are offset so neither surface occludes the segment. Returns the ray and the
 /// distance between the original points.

@@ -99,6 +99,11 @@ pub enum VertexKind {
     Directional(u32),
     /// A scattering point.
     Surface,
+    /// A scattering point inside medium `index` of `Scene::media`: no surface, so no normal
+    /// and no cosine ([`cos_at`] is 1); its f_s is the medium's phase function ([`scattering_at`]),
+    /// and σ_s and the transmittance are carried by the walk's free flights, which also made
+    /// the point (only the volumetric light walk makes such vertices).
+    Medium(u32),
     /// x_k, on the camera: the pinhole, a lens point or a film point (module doc, "Cameras").
     Eye,
 }
@@ -222,6 +227,22 @@ impl Vertex {
         }
     }
 
+    /// A scattering vertex at point `p` inside medium `medium` of `Scene::media`.
+    pub fn in_medium(p: Vec3, medium: u32) -> Self {
+        Self {
+            p,
+            ng: Vec3::ZERO,
+            frame: Frame::from_normal(Vec3::Z),
+            prim: u32::MAX,
+            material: u32::MAX,
+            tex: TexPoint::default(),
+            kind: VertexKind::Medium(medium),
+            delta: false,
+            mixed: false,
+            sampled: None,
+        }
+    }
+
     /// The eye vertex x_k of a new eye sub-path: the pinhole, a point drawn uniformly on a thin
     /// lens (nothing is drawn for the other cameras), or the eye point of an orthographic
     /// camera, which the walk's first ray moves to its film point ([`walk::first_eye_vertex`]).
@@ -267,7 +288,7 @@ impl Vertex {
     /// directional light.
     #[inline]
     pub fn is_light(&self) -> bool {
-        !matches!(self.kind, VertexKind::Surface | VertexKind::Eye)
+        !matches!(self.kind, VertexKind::Surface | VertexKind::Eye | VertexKind::Medium(_))
     }
 
     /// Environment or directional light: a direction rather than a point (module doc).
@@ -362,7 +383,7 @@ pub fn direction(a: &Vertex, b: &Vertex) -> (Vec3, f32) {
 #[inline]
 pub fn cos_at(v: &Vertex, d: Vec3) -> f32 {
     match v.kind {
-        VertexKind::DeltaLight(_) | VertexKind::Environment | VertexKind::Directional(_) => 1.0,
+        VertexKind::DeltaLight(_) | VertexKind::Environment | VertexKind::Directional(_) | VertexKind::Medium(_) => 1.0,
         VertexKind::Light(_) | VertexKind::Surface | VertexKind::Eye => v.ng.dot(d).abs(),
     }
 }
@@ -438,6 +459,11 @@ pub fn scattering(scene: &Scene, path: &[Vertex], i: usize) -> Vec3 {
 /// stochastic model ([`Vertex::sampled`]) it is the f that sample reported, so that a path's
 /// f / p is the walk's weight (module doc, "Layered models").
 pub fn scattering_at(scene: &Scene, v: &Vertex, eye_side: &Vertex, light_side: &Vertex) -> Vec3 {
+    if let VertexKind::Medium(m) = v.kind {
+        // Light arrives travelling along −(v → light side) and leaves along v → eye side.
+        let phase = &scene.media[m as usize].phase;
+        return Vec3::splat(phase.eval(-direction(v, light_side).0, direction(v, eye_side).0));
+    }
     let (Some(wo), Some(wi)) = (
         local_dir(v, direction(v, eye_side).0),
         local_dir(v, direction(v, light_side).0),
@@ -497,7 +523,7 @@ pub fn emitted(scene: &Scene, path: &[Vertex]) -> Vec3 {
             DeltaLight::Directional { irradiance, .. } => irradiance,
             _ => Vec3::ZERO,
         },
-        VertexKind::Surface | VertexKind::Eye => Vec3::ZERO,
+        VertexKind::Surface | VertexKind::Eye | VertexKind::Medium(_) => Vec3::ZERO,
     }
 }
 
@@ -550,7 +576,7 @@ pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
             (Some(env), Some(e)) => scene.light_selection.pmf(e) * env.pdf(-path[0].ng),
             _ => 0.0,
         },
-        (0 | 1, VertexKind::Surface | VertexKind::Eye) => 0.0,
+        (0 | 1, VertexKind::Surface | VertexKind::Eye | VertexKind::Medium(_)) => 0.0,
         (1, VertexKind::Environment | VertexKind::Directional(_)) => {
             let radius = scene.bounding_sphere().1;
             solid_angle_to_area(&path[0], &path[1]) / (PI * radius * radius)
@@ -577,6 +603,11 @@ pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
 /// [`pdf_light_side`] of vertex `x` (index ≥ 2) generated from surface vertex `v`, itself
 /// reached from `before`: the BSDF's density at `v` in importance transport, as an area density.
 pub fn pdf_light_step(scene: &Scene, x: &Vertex, v: &Vertex, before: &Vertex) -> f32 {
+    if let VertexKind::Medium(m) = v.kind {
+        // The phase function sampled for the direction of travel after the one it arrived in.
+        let phase = &scene.media[m as usize].phase;
+        return phase.eval(-direction(v, before).0, direction(v, x).0) * solid_angle_to_area(v, x);
+    }
     if !v.is_surface() {
         return 0.0;
     }

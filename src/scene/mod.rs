@@ -15,6 +15,7 @@ pub mod export;
 pub mod light_selection;
 pub mod limits;
 pub mod load;
+mod media_queries;
 pub mod mitsuba;
 pub mod pbrt;
 
@@ -449,11 +450,17 @@ impl Scene {
     /// interior behind it); `None` when it does not, and the ray stays in the medium it was in.
     #[inline]
     pub fn medium_across(&self, hit: &SurfaceHit, d: Vec3) -> Option<Option<u32>> {
-        let a = &self.attrs[hit.prim as usize];
+        self.medium_across_prim(hit.prim, hit.ng, d)
+    }
+
+    /// [`Scene::medium_across`] at a point of primitive `prim` with geometric normal `ng`.
+    #[inline]
+    pub fn medium_across_prim(&self, prim: u32, ng: Vec3, d: Vec3) -> Option<Option<u32>> {
+        let a = &self.attrs[prim as usize];
         if a.interior.is_none() && a.exterior.is_none() {
             return None;
         }
-        Some(if hit.ng.dot(d) > 0.0 { a.exterior } else { a.interior })
+        Some(if ng.dot(d) > 0.0 { a.exterior } else { a.interior })
     }
 
     /// The first surface along `ray` *without* passing masks: the volumetric walk passes them
@@ -469,14 +476,12 @@ impl Scene {
         let end = ray.at(ray.t_max);
         let mut t_before = 0.0;
         while self.passes_through(&hit, ray.d) {
-            let mut next = crate::geometry::spawn_ray(hit.p, hit.ng, ray.d);
             t_before += hit.t;
-            if ray.t_max.is_finite() {
-                next.t_max = (end - next.o).dot(ray.d) / ray.d.length_squared();
-                if next.t_max <= 0.0 {
-                    return None;
-                }
-            }
+            let next = if ray.t_max.is_finite() {
+                crate::geometry::spawn_ray_to_end(hit.p, hit.ng, ray.d, end)?
+            } else {
+                crate::geometry::spawn_ray(hit.p, hit.ng, ray.d)
+            };
             hit = self.surface_hit(&next, self.accel.intersect(&next)?);
         }
         hit.t += t_before;

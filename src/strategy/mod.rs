@@ -75,9 +75,9 @@ pub struct Capabilities {
     /// when a sampled direction's density is only known approximately, as it is for MIS and
     /// plain BSDF sampling, and not for Metropolis proposals.
     pub stochastic_bsdfs: bool,
-    /// Participating media ([`crate::medium`]): only `path` renders them (its volumetric walk,
-    /// [`crate::strategy::path::media`]); not part of [`Capabilities::ALL`], so that a strategy
-    /// claims them only by name.
+    /// Participating media ([`crate::medium`]): `path` and `light` render them (their
+    /// volumetric walks, [`crate::strategy::path::media`] and the light tracer's own); not part
+    /// of [`Capabilities::ALL`], so that a strategy claims them only by name.
     pub media: bool,
 }
 

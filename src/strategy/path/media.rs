@@ -98,37 +98,6 @@ impl Scatterer<'_> {
     }
 }
 
-/// The transmittance of `ray` up to its `t_max`, starting in `medium`: 0 when an opaque surface
-/// blocks it, else the product of e^{−σ_t ℓ} over the media it crosses, changing medium at the
-/// boundaries it passes.
-fn transmittance(scene: &Scene, mut medium: Option<u32>, ray: &Ray, rng: &mut Rng) -> Vec3 {
-    let mut tr = Vec3::ONE;
-    let end = ray.at(ray.t_max);
-    let mut segment = *ray;
-    loop {
-        let hit = scene.intersect_any(&segment);
-        let length = hit.as_ref().map_or(segment.t_max, |h| h.t);
-        if let Some(m) = medium {
-            tr *= scene.media[m as usize].transmittance_along(segment.o, segment.d, length, rng);
-        }
-        let Some(hit) = hit else { return tr };
-        if tr == Vec3::ZERO || !scene.passes_through(&hit, segment.d) {
-            return Vec3::ZERO;
-        }
-        if let Some(next) = scene.medium_across(&hit, segment.d) {
-            medium = next;
-        }
-        let mut next = spawn_ray(hit.p, hit.ng, segment.d);
-        if segment.t_max.is_finite() {
-            next.t_max = (end - next.o).dot(segment.d);
-            if next.t_max <= 0.0 {
-                return tr;
-            }
-        }
-        segment = next;
-    }
-}
-
 /// The medium a shadow ray toward `wi` starts in: across the surface when it bounds media.
 fn medium_toward(scene: &Scene, v: &Scatterer, medium: Option<u32>, wi: Vec3) -> Option<u32> {
     match v {
@@ -199,7 +168,7 @@ fn direct(
     let mut shadow = v.shadow_ray(wi);
     // Short of the light's point (a light on a surface is not hidden by that surface).
     shadow.t_max = dist * (1.0 - 1e-4);
-    let tr = transmittance(scene, medium_toward(scene, v, medium, wi), &shadow, rng);
+    let tr = scene.transmittance(medium_toward(scene, v, medium, wi), &shadow, rng);
     if tr == Vec3::ZERO {
         return Vec3::ZERO;
     }

@@ -28,8 +28,14 @@
 //! covers them with its other techniques). Nor does the environment seen straight through an
 //! orthographic camera (a delta in direction at both ends of the edge): it stays black.
 //!
+//! **Participating media** ([`crate::medium`]): scenes with media take the volumetric walk of
+//! [`media`], whose vertices may lie inside media and whose joins to the eye carry the
+//! transmittance of the media they cross.
+//!
 //! Russian roulette after `rr_depth` scattering events continues with q = min(0.95, Y(A_i) /
 //! Y(A_1)), the luminance of the throughput relative to what left the light.
+
+mod media;
 
 use super::{Declared, Strategy};
 use crate::error::Result;
@@ -116,6 +122,9 @@ impl LightTracing {
 
     /// Traces one light path and pushes its splats.
     fn trace(&self, scene: &Scene, rng: &mut Rng, out: &mut Vec<Splat>) {
+        if !scene.media.is_empty() {
+            return self.trace_through_media(scene, rng, out);
+        }
         let max_depth = self.params.max_depth as usize;
         let mut sub = Vec::with_capacity(max_depth + 1);
         let Some(x0) = sample_light_vertex(scene, rng) else {
@@ -156,7 +165,10 @@ impl LightTracing {
 
 impl Strategy for LightTracing {
     fn capabilities(&self) -> crate::strategy::Capabilities {
-        crate::strategy::Capabilities::ALL
+        crate::strategy::Capabilities {
+            media: true,
+            ..crate::strategy::Capabilities::ALL
+        }
     }
 
     fn kind(&self) -> &'static str {
