@@ -152,6 +152,7 @@ def main():
     ap.add_argument("--seeds", type=int, default=16, help="independent images per renderer (K)")
     ap.add_argument("--max-depth", type=int, default=8, help="our max_depth (scattering events)")
     ap.add_argument("--only", nargs="*", help="scene file names to run (default: all)")
+    ap.add_argument("--exclude", nargs="*", default=[], help="scene file names to leave out")
     ap.add_argument("--report", help="also write the table as Markdown to this file")
     ap.add_argument("--bench", default="target/release/bench")
     ap.add_argument("--strategy", default="path", help="our strategy (an unbiased one; default path)")
@@ -196,6 +197,7 @@ def main():
         names = sorted(f for f in os.listdir(copied_dir) if f.endswith(".xml"))
         if args.only:
             names = [n for n in names if n in args.only]
+        names = [n for n in names if n not in args.exclude]
         for name in names:
             path = os.path.join(copied_dir, name)
             if not is_scene(path):
