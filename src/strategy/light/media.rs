@@ -35,11 +35,10 @@ use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray};
 use crate::light::parallel_ray_origin;
 use crate::medium::{Flight, spectral_estimate};
 use crate::path_space::walk::{sample_light_vertex, scatter};
-use crate::path_space::{Vertex, VertexKind, camera_factor, emitted, eye_toward, geometry, pdf_light_side, scattering};
+use crate::path_space::{Vertex, VertexKind, emitted, geometry, pdf_light_side, scattering};
 use crate::sampling::{Rng, sample_cosine_hemisphere};
 use crate::scene::Scene;
 use glam::Vec3;
-use std::sync::atomic::Ordering::Relaxed;
 
 /// A light path's spectral bookkeeping: the hero channel that draws every free flight, the
 /// product of the flights' weights and of their density ratios p_c / p_h.
@@ -117,39 +116,18 @@ impl LightTracing {
         rng: &mut Rng,
         out: &mut Vec<Splat>,
     ) {
-        let Some(x) = sub.last() else { return };
-        if !x.connectible() {
-            return;
-        }
-        let eye = eye_toward(scene, x, &Vertex::eye(scene, rng));
-        let Some((raster, c)) = camera_factor(scene, x, &eye) else {
-            return;
-        };
-        self.connections.fetch_add(1, Relaxed);
-        let value = if sub.len() == 1 {
-            emitted(scene, &[*x, eye]) * c / pdf_light_side(scene, sub, 0)
-        } else {
-            let i = sub.len() - 1;
-            spectral.estimate(a) * scattering(scene, &[sub[i - 1], *x, eye], 1) * c
-        };
-        if value == Vec3::ZERO || !value.is_finite() {
-            return;
-        }
-        let ray = if x.is_at_infinity() {
-            Ray::new(eye.p, -x.ng)
-        } else {
-            let (ray, dist) = spawn_shadow_ray(eye.p, eye.ng, x.p, x.ng);
-            if !(dist > 0.0 && ray.d.is_finite()) {
-                return;
-            }
-            ray
-        };
-        let tr = scene.transmittance(scene.camera_medium, &ray, rng);
-        if tr == Vec3::ZERO {
-            return;
-        }
-        self.splats.fetch_add(1, Relaxed);
-        out.extend(scene.camera.splat(raster, rng).map(|(p, w)| (p, value * tr * w)));
+        self.join(scene, (sub, spectral.estimate(a)), rng, out, |x, eye, rng| {
+            let ray = if x.is_at_infinity() {
+                Ray::new(eye.p, -x.ng)
+            } else {
+                let (ray, dist) = spawn_shadow_ray(eye.p, eye.ng, x.p, x.ng);
+                if !(dist > 0.0 && ray.d.is_finite()) {
+                    return Vec3::ZERO;
+                }
+                ray
+            };
+            scene.transmittance(scene.camera_medium, &ray, rng)
+        });
     }
 
     /// Traces one light path through the scene's media and pushes its splats (module doc).

@@ -98,6 +98,22 @@ impl LightTracing {
     /// i ≥ 1) to the pinhole into `out`, on a pixel whose filter covers where it lands;
     /// nothing when it misses the image, is blocked, or its last vertex is specular.
     fn connect(&self, scene: &Scene, sub: &[Vertex], a: Vec3, rng: &mut Rng, out: &mut Vec<Splat>) {
+        self.join(scene, (sub, a), rng, out, |x, eye, _| {
+            if visible(scene, x, eye) { Vec3::ONE } else { Vec3::ZERO }
+        });
+    }
+
+    /// [`LightTracing::connect`] with what reaches the eye along the join, `through(x, eye)`
+    /// (1 or 0 for visibility, the transmittance through media), asked only for a join that
+    /// carries something.
+    fn join(
+        &self,
+        scene: &Scene,
+        (sub, a): (&[Vertex], Vec3),
+        rng: &mut Rng,
+        out: &mut Vec<Splat>,
+        through: impl FnOnce(&Vertex, &Vertex, &mut Rng) -> Vec3,
+    ) {
         let Some(x) = sub.last() else { return };
         if !x.connectible() {
             return;
@@ -113,11 +129,15 @@ impl LightTracing {
             let i = sub.len() - 1;
             a * scattering(scene, &[sub[i - 1], *x, eye], 1) * c
         };
-        if value == Vec3::ZERO || !value.is_finite() || !visible(scene, x, &eye) {
+        if value == Vec3::ZERO || !value.is_finite() {
+            return;
+        }
+        let tr = through(x, &eye, rng);
+        if tr == Vec3::ZERO {
             return;
         }
         self.splats.fetch_add(1, Relaxed);
-        out.extend(scene.camera.splat(raster, rng).map(|(p, w)| (p, value * w)));
+        out.extend(scene.camera.splat(raster, rng).map(|(p, w)| (p, value * tr * w)));
     }
 
     /// Traces one light path and pushes its splats.
