@@ -29,13 +29,13 @@
 //! transmittance e^{−σ_t·∞} is 0 in every channel with σ_t > 0 — as `path`'s rays and shadow
 //! rays that leave the scene inside such a medium never reach the environment.
 
-use super::{LightTracing, Splat};
+use super::{LightTracing, Splat, next_ratio, survival};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, spawn_ray, spawn_shadow_ray};
 use crate::light::parallel_ray_origin;
 use crate::medium::{Flight, spectral_estimate};
 use crate::path_space::walk::{sample_light_vertex, scatter};
-use crate::path_space::{Vertex, VertexKind, emitted, geometry, pdf_light_side, scattering};
+use crate::path_space::{Vertex, VertexKind};
 use crate::sampling::{Rng, sample_cosine_hemisphere};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -182,16 +182,10 @@ impl LightTracing {
                 return;
             }
             sub.push(next);
-            // A_i from A_{i−1}: the new edge's geometry over the new vertex's density.
-            let p = pdf_light_side(scene, &sub, i);
-            a = if i == 1 {
-                emitted(scene, &sub) * geometry(&sub[0], &sub[1]) / (pdf_light_side(scene, &sub, 0) * p)
-            } else {
-                a * scattering(scene, &sub, i - 1) * geometry(&sub[i - 1], &sub[i]) / p
-            };
-            if !(a.is_finite() && p > 0.0) || a == Vec3::ZERO {
+            let Some(next) = next_ratio(scene, &sub, a) else {
                 return;
-            }
+            };
+            a = next;
             if i == 1 {
                 a1_lum = crate::color::luminance(spectral.estimate(a));
             }
@@ -200,10 +194,9 @@ impl LightTracing {
                 return;
             }
             if i >= self.params.rr_depth as usize {
-                let q = (crate::color::luminance(spectral.estimate(a)) / a1_lum).clamp(0.0, 0.95);
-                if q.is_nan() || q <= 0.0 || rng.uniform() >= q {
+                let Some(q) = survival(crate::color::luminance(spectral.estimate(a)), a1_lum, rng) else {
                     return;
-                }
+                };
                 a /= q;
             }
             // The direction of travel from the new vertex.

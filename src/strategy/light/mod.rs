@@ -158,29 +158,43 @@ impl LightTracing {
             if !extend_light_side(scene, &mut sub, 1, rng) {
                 return;
             }
-            // A_i from A_{i−1}: the new edge's geometry over the new vertex's density.
-            let p = pdf_light_side(scene, &sub, i);
-            a = if i == 1 {
-                emitted(scene, &sub) * geometry(&sub[0], &sub[1]) / (pdf_light_side(scene, &sub, 0) * p)
-            } else {
-                a * scattering(scene, &sub, i - 1) * geometry(&sub[i - 1], &sub[i]) / p
-            };
-            if !(a.is_finite() && p > 0.0) || a == Vec3::ZERO {
+            let Some(next) = next_ratio(scene, &sub, a) else {
                 return;
-            }
+            };
+            a = next;
             if i == 1 {
                 a1_lum = crate::color::luminance(a);
             }
             self.connect(scene, &sub, a, rng, out);
             if i >= self.params.rr_depth as usize {
-                let q = (crate::color::luminance(a) / a1_lum).clamp(0.0, 0.95);
-                if q.is_nan() || q <= 0.0 || rng.uniform() >= q {
+                let Some(q) = survival(crate::color::luminance(a), a1_lum, rng) else {
                     return;
-                }
+                };
                 a /= q;
             }
         }
     }
+}
+
+/// A_i of the light sub-path `sub` (x₀ … x_i, i ≥ 1) from `a` = A_{i−1}: the new edge's geometry
+/// over the new vertex's density (for i = 1, Le G over the densities of x₀ and x₁); `None` when
+/// it is zero, not finite or has no density.
+fn next_ratio(scene: &Scene, sub: &[Vertex], a: Vec3) -> Option<Vec3> {
+    let i = sub.len() - 1;
+    let p = pdf_light_side(scene, sub, i);
+    let a = if i == 1 {
+        emitted(scene, sub) * geometry(&sub[0], &sub[1]) / (pdf_light_side(scene, sub, 0) * p)
+    } else {
+        a * scattering(scene, sub, i - 1) * geometry(&sub[i - 1], &sub[i]) / p
+    };
+    (a.is_finite() && p > 0.0 && a != Vec3::ZERO).then_some(a)
+}
+
+/// Russian roulette (module doc): the survival probability q = min(0.95, `lum` / `lum_1`), the
+/// luminance of the throughput relative to the first vertex's; `None` when the path ends.
+fn survival(lum: f32, lum_1: f32, rng: &mut Rng) -> Option<f32> {
+    let q = (lum / lum_1).clamp(0.0, 0.95);
+    (!(q.is_nan() || q <= 0.0) && rng.uniform() < q).then_some(q)
 }
 
 impl Strategy for LightTracing {
