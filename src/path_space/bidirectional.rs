@@ -6,11 +6,29 @@
 //! drawn with the densities of [`crate::path_space`] and Russian roulette; every technique's
 //! value divides by the survival probabilities of the vertices it uses, the weights ignore
 //! them (they still sum to one, so the estimators stay unbiased, as in pbrt).
+//!
+//! **Media** ([`crate::medium`]; `bdpt`). In a scene with media both sub-paths are drawn by the
+//! walks of [`super::media`] with one hero channel per sample ([`subpaths`]): free flights on
+//! every segment, vertices at collisions in media ([`super::VertexKind::Medium`], f_s the phase
+//! function), `null` boundaries passed. Each vertex keeps the medium its walk reached it in and
+//! the flights up to it ([`InMedium`]); a technique's value is its geometric w f / p times the
+//! flights of both sub-paths and the transmittance of its connecting edge, traced from the eye
+//! side ([`super::media::transmittance_between`]), with the hero-channel spectral estimate.
+//! **Decision: the MIS weights use pseudo-densities** — at each vertex the density of the
+//! direction that led to it (BSDF, phase function, emission, camera) as an area density, without
+//! the probability of the free flight that placed it there (σ_t T at a collision, T for a
+//! surface reached through a medium) — as pbrt-v3's volumetric `BDPTIntegrator` does. The
+//! flights' probabilities depend on the hero channel and, in heterogeneous media, are not known
+//! in closed form; leaving them out keeps each technique's weight a function of the path alone,
+//! so the weights still sum to one over the techniques and every technique stays unbiased. What
+//! is lost is optimality where the flights matter: in dense media the weights misjudge how
+//! likely each side was to reach a vertex.
 
-use super::walk::{extend_light_side, first_eye_vertex, join, scatter, trace_eye, trace_from};
+use super::media::{Flights, MediaWalk, emission_ray, transmittance_between};
+use super::walk::{extend_light_side, first_eye_vertex, join, sample_light_vertex, scatter, trace_eye, trace_from};
 use super::{
-    Vertex, camera_factor, contribution, emitted, eye_toward, geometry, pdf_eye_side, pdf_eye_step, pdf_light_side,
-    pdf_light_step, scattering, scattering_at, visible,
+    Vertex, VertexKind, camera_factor, contribution, direction, emitted, eye_toward, geometry, pdf_eye_side,
+    pdf_eye_step, pdf_light_side, pdf_light_step, scattering, scattering_at, visible,
 };
 use crate::bsdf::TransportMode;
 use crate::geometry::spawn_ray;
@@ -348,11 +366,21 @@ impl Roulette {
 }
 
 /// A sub-path: its vertices and, per vertex, the probability that Russian roulette let the
-/// walk reach it (1 before `rr_depth`).
+/// walk reach it (1 before `rr_depth`), and in a scene with media where its walk was
+/// ([`InMedium`]; empty otherwise).
 #[derive(Clone, Default)]
 pub struct SubPath {
     pub vertices: Vec<Vertex>,
     pub survival: Vec<f64>,
+    pub media: Vec<InMedium>,
+}
+
+/// Where a walk through media reached a vertex: the medium it arrived in (the one a ray leaving
+/// the vertex on the side it came from travels in) and the flights from the sub-path's start.
+#[derive(Clone, Copy, Debug)]
+pub struct InMedium {
+    pub medium: Option<u32>,
+    pub flights: Flights,
 }
 
 impl SubPath {
@@ -360,6 +388,84 @@ impl SubPath {
         self.vertices.push(v);
         self.survival.push(survival);
     }
+
+    fn push_in(&mut self, v: Vertex, survival: f64, walk: &MediaWalk) {
+        self.push(v, survival);
+        self.media.push(InMedium {
+            medium: walk.medium,
+            flights: walk.flights,
+        });
+    }
+
+    /// The flights up to vertex `i` (none in a scene without media).
+    #[inline]
+    fn flights(&self, i: usize) -> Flights {
+        self.media.get(i).map_or(Flights::ONE, |m| m.flights)
+    }
+}
+
+/// The eye and the light sub-path of one sample: [`eye_subpath`] and [`light_subpath`], or in a
+/// scene with media the walks through media with one hero channel for both (module doc,
+/// "Media").
+pub fn subpaths(scene: &Scene, raster: Vec2, roulette: Roulette, rng: &mut Rng) -> (SubPath, SubPath) {
+    if scene.media.is_empty() {
+        let eye = eye_subpath(scene, raster, roulette, rng);
+        return (eye, light_subpath(scene, roulette, rng));
+    }
+    let hero = MediaWalk::draw_hero(rng);
+    let eye = eye_subpath_in_media(scene, raster, roulette, hero, rng);
+    (eye, light_subpath_in_media(scene, roulette, hero, rng))
+}
+
+/// [`eye_subpath`] through media, its flights drawn with hero channel `hero`.
+fn eye_subpath_in_media(scene: &Scene, raster: Vec2, roulette: Roulette, hero: usize, rng: &mut Rng) -> SubPath {
+    let mut sub = SubPath::default();
+    let mut z0 = Vertex::eye(scene, rng);
+    let cam = &scene.camera;
+    let ray = cam.ray_from(raster, z0.p);
+    z0.p = ray.o;
+    let mut walk = MediaWalk::new(hero, scene.camera_medium);
+    sub.push_in(z0, 1.0, &walk);
+    let Some(mut z1) = walk.next_vertex(scene, ray, true, rng) else {
+        return sub;
+    };
+    z1.delta |= z1.is_at_infinity() && cam.is_orthographic();
+    sub.push_in(z1, 1.0, &walk);
+    if !z1.is_at_infinity() {
+        roulette.grow_in_media(
+            scene,
+            &mut sub,
+            roulette.max_depth + 2,
+            TransportMode::Radiance,
+            walk,
+            rng,
+        );
+    }
+    sub
+}
+
+/// [`light_subpath`] through media, its flights drawn with hero channel `hero`.
+fn light_subpath_in_media(scene: &Scene, roulette: Roulette, hero: usize, rng: &mut Rng) -> SubPath {
+    let mut sub = SubPath::default();
+    let Some(x0) = sample_light_vertex(scene, rng) else {
+        return sub;
+    };
+    sub.push_in(x0, 1.0, &MediaWalk::new(hero, None));
+    let Some((ray, mut walk)) = emission_ray(scene, &x0, hero, rng) else {
+        return sub;
+    };
+    if let Some(x1) = walk.next_vertex(scene, ray, false, rng) {
+        sub.push_in(x1, 1.0, &walk);
+        roulette.grow_in_media(
+            scene,
+            &mut sub,
+            roulette.max_depth + 1,
+            TransportMode::Importance,
+            walk,
+            rng,
+        );
+    }
+    sub
 }
 
 /// The eye sub-path through `raster`: z₀ on the camera (a lens point drawn uniformly for a
@@ -395,6 +501,56 @@ pub fn light_subpath(scene: &Scene, roulette: Roulette, rng: &mut Rng) -> SubPat
     sub
 }
 
+impl Roulette {
+    /// [`Roulette::grow`] through media: the next direction from the BSDF at a surface, from
+    /// the phase function in a medium (whose sample weighs 1), the next vertex by `walk`'s free
+    /// flights; the roulette weighs the sub-path's estimate, flights included.
+    fn grow_in_media(
+        &self,
+        scene: &Scene,
+        sub: &mut SubPath,
+        max_vertices: usize,
+        mode: TransportMode,
+        mut walk: MediaWalk,
+        rng: &mut Rng,
+    ) {
+        let (mut beta, mut q) = (Vec3::ONE, 1.0);
+        while sub.vertices.len() < max_vertices {
+            let n = sub.vertices.len();
+            let v = sub.vertices[n - 1];
+            let d = match v.kind {
+                VertexKind::Medium(m) => {
+                    let travel = direction(&sub.vertices[n - 2], &v).0;
+                    scene.media[m as usize].phase.sample(travel, rng.uniform2()).0
+                }
+                _ => {
+                    let Some(step) = scatter(scene, &mut sub.vertices, mode, rng) else {
+                        break;
+                    };
+                    beta *= step.weight;
+                    step.wi
+                }
+            };
+            let survive = self.survival(n - 1, walk.flights.estimate(beta), Vec3::ONE);
+            if survive < 1.0 {
+                if rng.uniform() as f64 >= survive {
+                    break;
+                }
+                beta /= survive as f32;
+            }
+            q *= survive;
+            let ray = walk.leave(scene, &v, d);
+            let Some(next) = walk.next_vertex(scene, ray, mode == TransportMode::Radiance, rng) else {
+                break;
+            };
+            sub.push_in(next, q, &walk);
+            if next.is_at_infinity() {
+                break;
+            }
+        }
+    }
+}
+
 /// One path a connection made ([`connect_all`]).
 pub struct Connection<'a> {
     pub path: &'a [Vertex],
@@ -411,7 +567,8 @@ pub struct Connection<'a> {
 /// Every connection technique between one eye and one light sub-path — s = 0 (the eye walk hits
 /// a light), t = 1 (y_{s−1} to the eye), s ≥ 1 with t ≥ 2 (y_{s−1} to z_{t−1}) — each of
 /// at most `max_edges` edges, weighted with merging in the weights when `eta` is given (`vcm`);
-/// `visit` receives those that contribute. Returns the number of connections tried (shadow
+/// `visit` receives those that contribute, with `rng` (which, in a scene with media, also
+/// estimates the connections' transmittance). Returns the number of connections tried (shadow
 /// rays cast or skipped by an earlier test).
 pub fn connect_all(
     scene: &Scene,
@@ -419,10 +576,39 @@ pub fn connect_all(
     caches: (&EyeCache, &LightCache),
     eta: Option<f64>,
     max_edges: usize,
-    visit: &mut impl FnMut(Connection),
+    rng: &mut Rng,
+    visit: &mut impl FnMut(Connection, &mut Rng),
 ) -> u64 {
     let (z, y) = (&eye.vertices, &light.vertices);
     let weigh = |path: &[Vertex], s: usize, t: usize| weighted_cached(scene, path, (s, t), caches, eta, max_edges);
+    let media = !eye.media.is_empty();
+    // What reaches z (eye-side vertex `t` − 1, or the eye `z0` of t = 1) from y_{s−1} along
+    // the connecting edge, and the estimate of a value with the flights of both sub-paths.
+    let through = |zt: &Vertex, t: usize, s: usize, rng: &mut Rng| {
+        if media {
+            let arrived_in = eye.media[t - 1].medium;
+            transmittance_between(scene, zt, arrived_in, &y[s - 1], rng)
+        } else {
+            if visible(scene, &y[s - 1], zt) {
+                Vec3::ONE
+            } else {
+                Vec3::ZERO
+            }
+        }
+    };
+    let estimate = |v: Vec3, s: usize, t: usize| {
+        if media {
+            let flights = eye.flights(t - 1);
+            let flights = if s == 0 {
+                flights
+            } else {
+                flights.and(&light.flights(s - 1))
+            };
+            flights.estimate(v)
+        } else {
+            v
+        }
+    };
     let mut tried = 0;
     // s = 0: the eye walk hits a light at z_{t−1}.
     let mut path = Vec::with_capacity(z.len() + y.len());
@@ -432,14 +618,17 @@ pub fn connect_all(
             path.push(x0);
             path.extend(z[..t - 1].iter().rev());
             if let Some((v, _)) = weigh(&path, 0, t) {
-                let value = v / eye.survival[t - 1] as f32;
-                visit(Connection {
-                    path: &path,
-                    s: 0,
-                    t,
-                    value,
-                    raster: None,
-                });
+                let value = estimate(v / eye.survival[t - 1] as f32, 0, t);
+                visit(
+                    Connection {
+                        path: &path,
+                        s: 0,
+                        t,
+                        value,
+                        raster: None,
+                    },
+                    rng,
+                );
             }
         }
     }
@@ -453,37 +642,46 @@ pub fn connect_all(
         if camera_factor(scene, &y[s - 1], &z0).is_some() {
             let path = join(&y[..s], &[z0]);
             tried += 1;
-            if let Some((v, r)) = weigh(&path, s, 1)
-                && visible(scene, &y[s - 1], &z0)
-            {
-                let value = v / light.survival[s - 1] as f32;
-                visit(Connection {
-                    path: &path,
-                    s,
-                    t: 1,
-                    value,
-                    raster: Some(r),
-                });
+            if let Some((v, r)) = weigh(&path, s, 1) {
+                let tr = through(&z0, 1, s, rng);
+                if tr != Vec3::ZERO {
+                    let value = estimate(v * tr / light.survival[s - 1] as f32, s, 1);
+                    visit(
+                        Connection {
+                            path: &path,
+                            s,
+                            t: 1,
+                            value,
+                            raster: Some(r),
+                        },
+                        rng,
+                    );
+                }
             }
         }
-        // t ≥ 2: y_{s−1} to z_{t−1} (a surface: not the environment that ends an eye walk).
+        // t ≥ 2: y_{s−1} to z_{t−1} (a surface or a point in a medium: not the environment that
+        // ends an eye walk).
         for t in 2..=z.len() {
-            if !(z[t - 1].is_surface() && z[t - 1].can_end_connection()) {
+            if !(z[t - 1].scatters() && z[t - 1].can_end_connection()) {
                 continue;
             }
             let path = join(&y[..s], &z[..t]);
             tried += 1;
-            if let Some((v, _)) = weigh(&path, s, t)
-                && visible(scene, &y[s - 1], &z[t - 1])
-            {
-                let value = v / (light.survival[s - 1] * eye.survival[t - 1]) as f32;
-                visit(Connection {
-                    path: &path,
-                    s,
-                    t,
-                    value,
-                    raster: None,
-                });
+            if let Some((v, _)) = weigh(&path, s, t) {
+                let tr = through(&z[t - 1], t, s, rng);
+                if tr != Vec3::ZERO {
+                    let value = estimate(v * tr / (light.survival[s - 1] * eye.survival[t - 1]) as f32, s, t);
+                    visit(
+                        Connection {
+                            path: &path,
+                            s,
+                            t,
+                            value,
+                            raster: None,
+                        },
+                        rng,
+                    );
+                }
             }
         }
     }
@@ -513,7 +711,7 @@ pub fn bidirectional_sample(scene: &Scene, max_edges: usize, rng: &mut Rng, emit
         &EyeCache::new(scene, &eye.vertices),
         &LightCache::new(scene, &light.vertices),
     );
-    connect_all(scene, (&eye, &light), caches, None, max_edges, &mut |c| {
+    connect_all(scene, (&eye, &light), caches, None, max_edges, rng, &mut |c, _| {
         emit(c.path, c.value)
     });
 }

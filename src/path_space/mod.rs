@@ -67,6 +67,7 @@
 //! strategy; this is the measure-theoretic layer both read.
 
 pub mod bidirectional;
+pub mod media;
 pub mod walk;
 
 use crate::bsdf::{Bsdf, TransportMode};
@@ -102,7 +103,7 @@ pub enum VertexKind {
     /// A scattering point inside medium `index` of `Scene::media`: no surface, so no normal
     /// and no cosine ([`cos_at`] is 1); its f_s is the medium's phase function ([`scattering_at`]),
     /// and σ_s and the transmittance are carried by the walk's free flights, which also made
-    /// the point (only the volumetric light walk makes such vertices).
+    /// the point (made by the walks of [`media`]).
     Medium(u32),
     /// x_k, on the camera: the pinhole, a lens point or a film point (module doc, "Cameras").
     Eye,
@@ -307,6 +308,12 @@ impl Vertex {
     #[inline]
     pub fn is_surface(&self) -> bool {
         self.kind == VertexKind::Surface
+    }
+
+    /// A scattering vertex: on a surface, or at a point in a medium.
+    #[inline]
+    pub fn scatters(&self) -> bool {
+        matches!(self.kind, VertexKind::Surface | VertexKind::Medium(_))
     }
 
     /// A point of a surface, with its material: a scattering vertex or a point on an area light
@@ -604,9 +611,7 @@ pub fn pdf_light_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
 /// reached from `before`: the BSDF's density at `v` in importance transport, as an area density.
 pub fn pdf_light_step(scene: &Scene, x: &Vertex, v: &Vertex, before: &Vertex) -> f32 {
     if let VertexKind::Medium(m) = v.kind {
-        // The phase function sampled for the direction of travel after the one it arrived in.
-        let phase = &scene.media[m as usize].phase;
-        return phase.eval(-direction(v, before).0, direction(v, x).0) * solid_angle_to_area(v, x);
+        return phase_density(scene, m, x, v, before);
     }
     if !v.is_surface() {
         return 0.0;
@@ -615,6 +620,16 @@ pub fn pdf_light_step(scene: &Scene, x: &Vertex, v: &Vertex, before: &Vertex) ->
         return 0.0;
     };
     direction_pdf(scene, v, wo, wi, TransportMode::Importance) * solid_angle_to_area(v, x)
+}
+
+/// The area density of vertex `x` drawn from medium vertex `v` (of medium `m`), reached from
+/// `before`: the phase function sampled for the direction of travel after the one the walk
+/// arrived in, as an area density (no cosine at a point in a medium). It ignores the free
+/// flight that places `x` along the ray: a pseudo-density (module doc of
+/// [`bidirectional`], "Media").
+fn phase_density(scene: &Scene, m: u32, x: &Vertex, v: &Vertex, before: &Vertex) -> f32 {
+    let phase = &scene.media[m as usize].phase;
+    phase.eval(-direction(v, before).0, direction(v, x).0) * solid_angle_to_area(v, x)
 }
 
 /// Area density with which the *eye* side produces vertex i from i+1 (and i+2): x_{k−1} by a
@@ -629,13 +644,16 @@ pub fn pdf_eye_side(scene: &Scene, path: &[Vertex], i: usize) -> f32 {
 /// [`pdf_eye_side`] of vertex `x` generated from `v`, itself reached from `before`; `before` is
 /// `None` when `v` is the eye (x is then the first vertex the camera sees).
 pub fn pdf_eye_step(scene: &Scene, x: &Vertex, v: &Vertex, before: Option<&Vertex>) -> f32 {
-    if !x.is_surface() && !x.is_hittable_light() {
+    if !x.scatters() && !x.is_hittable_light() {
         return 0.0;
     }
     let Some(before) = before else {
         let pixels = scene.camera.pixel_count() as f32;
         return camera_factor(scene, x, v).map_or(0.0, |(_, c)| c / pixels);
     };
+    if let VertexKind::Medium(m) = v.kind {
+        return phase_density(scene, m, x, v, before);
+    }
     if !v.is_surface() {
         return 0.0;
     }

@@ -18,6 +18,11 @@
 //! per-pixel density; the N cancels in the balance of the weights. Each technique then adds
 //! w_s f(X) / (N p_s(X)) to its pixel.
 //!
+//! **Participating media**: in a scene with media both sub-paths walk through them (free
+//! flights, vertices at collisions in media, one hero channel per sample) and every connection
+//! carries the transmittance of its edge; the MIS weights use pbrt-v3's pseudo-densities, which
+//! leave out the free flights' probabilities ([`crate::path_space::bidirectional`], "Media").
+//!
 //! **Russian roulette** on each sub-path after `rr_depth` scattering events, with the
 //! survival probability of the throughput relative to the sub-path's first (eye: the camera
 //! ray's weight 1; light: the emitted flux), at most 0.95; contributions divide by the
@@ -118,10 +123,15 @@ impl Bdpt {
         }
     }
 
+    /// The eye sub-path through `raster` and a light sub-path, through media in a scene with
+    /// media ([`bidirectional::subpaths`]).
+    pub(super) fn subpaths(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> (SubPath, SubPath) {
+        bidirectional::subpaths(scene, raster, self.roulette(), rng)
+    }
+
     /// Every technique of one pixel sample.
     fn sample(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> Sample {
-        let eye = self.eye_subpath(scene, raster, rng);
-        let light = self.light_subpath(scene, rng);
+        let (eye, light) = self.subpaths(scene, raster, rng);
         let caches = (
             &EyeCache::new(scene, &eye.vertices),
             &LightCache::new(scene, &light.vertices),
@@ -146,16 +156,24 @@ impl Bdpt {
             splats: Vec::new(),
         };
         let n = scene.camera.pixel_count() as f32;
-        let tried = bidirectional::connect_all(scene, (eye, light), caches, eta, self.max_edges(), &mut |c| {
-            let v = c.value / n;
-            match c.raster {
-                Some(r) => {
-                    out.splats.extend(scene.camera.splat(r, rng).map(|(p, w)| (p, v * w)));
-                    self.splats.fetch_add(1, Relaxed);
+        let tried = bidirectional::connect_all(
+            scene,
+            (eye, light),
+            caches,
+            eta,
+            self.max_edges(),
+            rng,
+            &mut |c, rng| {
+                let v = c.value / n;
+                match c.raster {
+                    Some(r) => {
+                        out.splats.extend(scene.camera.splat(r, rng).map(|(p, w)| (p, v * w)));
+                        self.splats.fetch_add(1, Relaxed);
+                    }
+                    None => out.own += v,
                 }
-                None => out.own += v,
-            }
-        });
+            },
+        );
         self.connections.fetch_add(tried, Relaxed);
         out
     }
@@ -202,7 +220,10 @@ pub(super) fn pixel_pass(scene: &Scene, film: &mut Film, sample: impl Fn(usize) 
 
 impl Strategy for Bdpt {
     fn capabilities(&self) -> crate::strategy::Capabilities {
-        crate::strategy::Capabilities::ALL
+        crate::strategy::Capabilities {
+            media: true,
+            ..crate::strategy::Capabilities::ALL
+        }
     }
 
     fn kind(&self) -> &'static str {
@@ -237,6 +258,7 @@ impl Strategy for Bdpt {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::path_space::VertexKind;
     use crate::path_space::bidirectional::{Technique, mis_weight_from};
     use crate::path_space::walk::join;
     use crate::scene::load_scene;
@@ -246,7 +268,8 @@ mod tests {
     /// heuristic — for every technique (s, t) of many sample pairs: specular chains
     /// (cornell-spheres), smooth plastic (a delta lobe beside a diffuse one: cornell-plastic),
     /// an environment map on rough conductors and textures (the material preview), point, spot
-    /// and directional lights (the courtyard), Veach's glossy plates.
+    /// and directional lights (the courtyard), Veach's glossy plates, and vertices in media
+    /// (homogeneous fog and milk behind glass, heterogeneous smoke).
     #[test]
     fn cached_connections_weigh_as_whole_paths() {
         for file in [
@@ -255,17 +278,18 @@ mod tests {
             "scenes/mitsuba/matpreview-copper.xml",
             "scenes/mitsuba/delta-lights.xml",
             "scenes/mitsuba/veach-mis.xml",
+            "scenes/mitsuba/fog.xml",
+            "scenes/mitsuba/smoke.xml",
         ] {
             let scene = load_scene(std::path::Path::new(file)).unwrap();
             let bdpt = Bdpt::new(BdptParams::default()).unwrap();
-            let (mut compared, mut nonzero) = (0, 0);
+            let (mut compared, mut nonzero, mut in_media) = (0, 0, 0);
             for i in 0..300u64 {
                 let mut rng = Rng::for_task(3, [i, 0, 0]);
                 let raster = scene
                     .camera
                     .sample_raster(i as usize % scene.camera.pixel_count(), rng.uniform2());
-                let eye = bdpt.eye_subpath(&scene, raster, &mut rng);
-                let light = bdpt.light_subpath(&scene, &mut rng);
+                let (eye, light) = bdpt.subpaths(&scene, raster, &mut rng);
                 let (z, y) = (&eye.vertices, &light.vertices);
                 let cache = (&EyeCache::new(&scene, z), &LightCache::new(&scene, y));
                 let mut paths = Vec::new();
@@ -278,7 +302,7 @@ mod tests {
                 }
                 for s in 1..=y.len() {
                     for t in 1..=z.len() {
-                        if t == 1 || (z[t - 1].is_surface() && z[t - 1].can_end_connection()) {
+                        if t == 1 || (z[t - 1].scatters() && z[t - 1].can_end_connection()) {
                             paths.push((join(&y[..s], &z[..t]), s, t));
                         }
                     }
@@ -300,6 +324,7 @@ mod tests {
                                     assert_eq!(ra, rb, "{file}: raster of a light-tracing path");
                                 }
                                 nonzero += usize::from(a != Vec3::ZERO);
+                                in_media += usize::from(path.iter().any(|v| matches!(v.kind, VertexKind::Medium(_))));
                             }
                             (None, None) => {}
                             (a, b) => panic!("{file}, sample {i}, (s, t) = ({s}, {t}): whole {a:?}, cached {b:?}"),
@@ -327,6 +352,10 @@ mod tests {
             assert!(
                 compared > 1000 && nonzero > 200,
                 "{file}: {compared} compared, {nonzero} non-zero"
+            );
+            assert!(
+                scene.media.is_empty() || in_media > 30,
+                "{file}: {in_media} non-zero paths with a vertex in a medium"
             );
         }
     }

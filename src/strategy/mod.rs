@@ -75,9 +75,10 @@ pub struct Capabilities {
     /// when a sampled direction's density is only known approximately, as it is for MIS and
     /// plain BSDF sampling, and not for Metropolis proposals.
     pub stochastic_bsdfs: bool,
-    /// Participating media ([`crate::medium`]): `path` and `light` render them (their
-    /// volumetric walks, [`crate::strategy::path::media`] and the light tracer's own); not part
-    /// of [`Capabilities::ALL`], so that a strategy claims them only by name.
+    /// Participating media ([`crate::medium`]): `path`, `light` and `bdpt` render them (their
+    /// volumetric walks: [`crate::strategy::path::media`], and [`crate::path_space::media`] for
+    /// the light tracer and the bidirectional sub-paths); not part of [`Capabilities::ALL`], so
+    /// that a strategy claims them only by name.
     pub media: bool,
 }
 
