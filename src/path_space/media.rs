@@ -42,16 +42,6 @@ impl Flights {
         spectral_estimate(a * self.weight, self.ratio)
     }
 
-    /// The flights of a path made of two sub-paths drawn with the same hero channel: their
-    /// weights and their density ratios multiply.
-    #[inline]
-    pub fn and(&self, other: &Self) -> Self {
-        Self {
-            weight: self.weight * other.weight,
-            ratio: self.ratio * other.ratio,
-        }
-    }
-
     #[inline]
     fn take(&mut self, weight: Vec3, ratio: Vec3) {
         self.weight *= weight;

@@ -19,7 +19,7 @@
 //! w_s f(X) / (N p_s(X)) to its pixel.
 //!
 //! **Participating media**: in a scene with media both sub-paths walk through them (free
-//! flights, vertices at collisions in media, one hero channel per sample) and every connection
+//! flights, vertices at collisions in media, a hero channel per sub-path) and every connection
 //! carries the transmittance of its edge; the MIS weights use pbrt-v3's pseudo-densities, which
 //! leave out the free flights' probabilities ([`crate::path_space::bidirectional`], "Media").
 //!
@@ -106,14 +106,22 @@ pub(super) struct Sample {
 }
 
 impl Bdpt {
-    /// The eye sub-path through `raster` ([`bidirectional::eye_subpath`]).
+    /// The eye sub-path through `raster` ([`bidirectional::eye_subpath`]; through media in a
+    /// scene with media, [`bidirectional::eye_subpath_in_media`]).
     pub(super) fn eye_subpath(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> SubPath {
-        bidirectional::eye_subpath(scene, raster, self.roulette(), rng)
+        match scene.media.is_empty() {
+            true => bidirectional::eye_subpath(scene, raster, self.roulette(), rng),
+            false => bidirectional::eye_subpath_in_media(scene, raster, self.roulette(), rng),
+        }
     }
 
-    /// The light sub-path ([`bidirectional::light_subpath`]).
+    /// The light sub-path ([`bidirectional::light_subpath`]; through media in a scene with
+    /// media, [`bidirectional::light_subpath_in_media`]).
     pub(super) fn light_subpath(&self, scene: &Scene, rng: &mut Rng) -> SubPath {
-        bidirectional::light_subpath(scene, self.roulette(), rng)
+        match scene.media.is_empty() {
+            true => bidirectional::light_subpath(scene, self.roulette(), rng),
+            false => bidirectional::light_subpath_in_media(scene, self.roulette(), rng),
+        }
     }
 
     fn roulette(&self) -> Roulette {
@@ -123,15 +131,10 @@ impl Bdpt {
         }
     }
 
-    /// The eye sub-path through `raster` and a light sub-path, through media in a scene with
-    /// media ([`bidirectional::subpaths`]).
-    pub(super) fn subpaths(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> (SubPath, SubPath) {
-        bidirectional::subpaths(scene, raster, self.roulette(), rng)
-    }
-
     /// Every technique of one pixel sample.
     fn sample(&self, scene: &Scene, raster: Vec2, rng: &mut Rng) -> Sample {
-        let (eye, light) = self.subpaths(scene, raster, rng);
+        let eye = self.eye_subpath(scene, raster, rng);
+        let light = self.light_subpath(scene, rng);
         let caches = (
             &EyeCache::new(scene, &eye.vertices),
             &LightCache::new(scene, &light.vertices),
@@ -289,7 +292,8 @@ mod tests {
                 let raster = scene
                     .camera
                     .sample_raster(i as usize % scene.camera.pixel_count(), rng.uniform2());
-                let (eye, light) = bdpt.subpaths(&scene, raster, &mut rng);
+                let eye = bdpt.eye_subpath(&scene, raster, &mut rng);
+                let light = bdpt.light_subpath(&scene, &mut rng);
                 let (z, y) = (&eye.vertices, &light.vertices);
                 let cache = (&EyeCache::new(&scene, z), &LightCache::new(&scene, y));
                 let mut paths = Vec::new();

@@ -247,13 +247,21 @@ pub fn check_scene(strategy: &dyn Strategy, scene: &Scene) -> Result<()> {
     if let Some(m) = scene.media.first()
         && !strategy.handles_media()
     {
+        let able = able(|s| s.handles_media());
+        // A kind whose defaults render media refuses them only with some parameters (`vcm`'s
+        // `ppm` mode).
+        let these = if able.contains(&strategy.kind()) {
+            " with these parameters"
+        } else {
+            ""
+        };
         crate::bail!(
-            "{}: strategy `{}` does not render participating media (the scene's medium {:?}) yet; \
+            "{}: strategy `{}`{these} does not render participating media (the scene's medium {:?}) yet; \
              strategies that do: {}",
             scene.source.display(),
             strategy.kind(),
             m.name,
-            able(|s| s.handles_media()).join(", ")
+            able.join(", ")
         );
     }
     if scene.environment.is_some() && !strategy.handles_environment() {

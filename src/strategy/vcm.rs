@@ -27,6 +27,17 @@
 //! and α = 0.75). Each pass is an estimate at its own radius; the film averages them, so the
 //! bias vanishes as passes grow (consistent) and any split into passes gives the same image.
 //!
+//! **Participating media** (modes `vcm` and `bpt`): the sub-paths walk through media as
+//! `bdpt`'s do, each with its own hero channel, and a merge's estimate is the product of the two
+//! sub-paths' spectral estimates as a connection's is ([`crate::path_space::bidirectional`],
+//! "Media"). **Decision: merging happens at
+//! surface vertices only**; vertices in media are connected, never merged (a volume would need
+//! its own kernel — photon points or beams in 3-D, Křivánek et al. 2014's unified points, beams
+//! and paths — not the disc of a surface), and the weights count merging only where it can
+//! happen ([`crate::path_space::bidirectional::mis_weight_from`]), so they still sum to one. The
+//! `ppm` mode refuses media: its eye path stops at the first non-specular vertex, which in a
+//! medium could not merge.
+//!
 //! **Modes** (`mode`), as in the paper's comparisons: `"vcm"` both; `"bpt"` connections only —
 //! `bdpt` with VCM's sample streams, the same estimator; `"ppm"` merging only, as SmallVCM's
 //! PPM mode: the eye path stops at its first non-specular vertex and merges there, emitters
@@ -38,7 +49,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::params::{Params, Range};
 use crate::path_space::bidirectional::{EyeCache, LightCache, SubPath, Technique, cached_densities, mis_weight_from};
-use crate::path_space::{Vertex, emitted, scattering};
+use crate::path_space::{emitted, scattering};
 use crate::photon::{KdPoint, KdTree};
 use crate::sampling::{Rng, stream};
 use crate::scene::Scene;
@@ -203,13 +214,15 @@ impl Vcm {
     fn merge_at(
         &self,
         scene: &Scene,
-        z: &[Vertex],
+        eye: &SubPath,
         t: usize,
         alpha_e: Vec3,
         (pass, r, eta): (&LightPass, f64, f64),
         weights: Option<&EyeCache>,
     ) -> DVec3 {
         let (lights, points) = (&pass.paths, &pass.points);
+        let z = &eye.vertices;
+        let media = !eye.media.is_empty();
         // The merge meets z_{t−1} with its non-delta lobe, whichever the eye walk took there.
         let x = z[t - 1].as_endpoint();
         let items = points.items();
@@ -240,7 +253,13 @@ impl Vcm {
                 1.0
             };
             found += 1;
-            sum += (alpha_e * f * lp.alpha).as_dvec3() * (w / eta);
+            let mut value = alpha_e * f * lp.alpha;
+            if media {
+                value = eye
+                    .flights(t - 1)
+                    .estimate(lights[lp.path as usize].flights(u).estimate(value));
+            }
+            sum += value.as_dvec3() * (w / eta);
         });
         self.merges.fetch_add(found, Relaxed);
         sum
@@ -267,7 +286,7 @@ impl Vcm {
                         continue;
                     }
                     let alpha_e = eye_cache.alpha(t, scene.camera.pixel_count() as f64) / eye.survival[t - 1] as f32;
-                    own += self.merge_at(scene, z, t, alpha_e, merge, Some(&eye_cache));
+                    own += self.merge_at(scene, eye, t, alpha_e, merge, Some(&eye_cache));
                 }
                 sample.own = own.as_vec3();
                 sample
@@ -284,7 +303,7 @@ impl Vcm {
                     // through a delta lobe (a smooth plastic's coating), the part it carries is
                     // still to be collected further on.
                     if z[t - 1].is_surface() && z[t - 1].can_end_connection() {
-                        own += self.merge_at(scene, z, t, alpha_e, merge, None);
+                        own += self.merge_at(scene, eye, t, alpha_e, merge, None);
                         if !z[t - 1].delta {
                             break;
                         }
@@ -301,7 +320,10 @@ impl Vcm {
 
 impl Strategy for Vcm {
     fn capabilities(&self) -> crate::strategy::Capabilities {
-        crate::strategy::Capabilities::ALL
+        crate::strategy::Capabilities {
+            media: self.params.mode != VcmMode::Ppm,
+            ..crate::strategy::Capabilities::ALL
+        }
     }
 
     fn kind(&self) -> &'static str {
@@ -354,7 +376,7 @@ impl Strategy for Vcm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::path_space::{camera_factor, geometry, light_throughput, pdf_eye_side, pdf_light_side};
+    use crate::path_space::{Vertex, camera_factor, geometry, light_throughput, pdf_eye_side, pdf_light_side};
     use crate::photon::test_scenes::emitting_box;
 
     /// α_E(t−1) of eye sub-path `z` (z₀ the eye vertex) from the whole path, the reference for
