@@ -1,7 +1,7 @@
 //! pbrt-v4 scenes (`*.pbrt`): the Cornell box written in pbrt's format renders as the same box
 //! written in ours (which matches Mitsuba 3's); pbrt's left-handed camera mirrors the image;
-//! transforms, the attribute stack, orientation, materials and lights mean what pbrt-v4 says;
-//! what is not read is refused in one line naming the line.
+//! transforms, the attribute stack, orientation, materials, lights and media mean what pbrt-v4
+//! says; what is not read is refused in one line naming the line.
 
 mod agreement;
 
@@ -277,8 +277,37 @@ fn what_is_not_read_is_refused_naming_the_line() {
         ("Material \"hair\"", &["line 13", "Material", "hair"][..]),
         (
             "MakeNamedMedium \"fog\"",
-            &["line 13", "MakeNamedMedium", "not supported"],
+            &["line 13", "MakeNamedMedium", "string type"],
         ),
+        (
+            "MakeNamedMedium \"fog\" \"string type\" \"uniformgrid\"",
+            &["line 13", "uniformgrid", "not read"],
+        ),
+        (
+            "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"string preset\" \"Skin1\"",
+            &["line 13", "preset"],
+        ),
+        (
+            "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb Le\" [1 1 1]",
+            &["line 13", "Le", "emitting"],
+        ),
+        (
+            "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"float g\" 1",
+            &["line 13", "g:", "(-1, 1)"],
+        ),
+        (
+            "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [1 -1 1]",
+            &["line 13", "sigma_a", ">= 0"],
+        ),
+        (
+            "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"float sigma_t\" 1",
+            &["line 13", "sigma_t"],
+        ),
+        (
+            "MediumInterface \"nowhere\" \"\"",
+            &["line 13", "MediumInterface", "no medium named \"nowhere\""],
+        ),
+        ("MediumInterface 1 2", &["line 13", "medium names"]),
         ("ObjectInstance \"tree\"", &["line 13", "no object named"]),
         ("ObjectBegin \"tree\"", &["ObjectBegin", "never ended"]),
         (
@@ -784,4 +813,102 @@ emission = { radiance = [1, 1, 1] }
     assert!((ha.p - hb.p).length() < 1e-5);
     assert!((a.texture_point(&ha).uv - b.texture_point(&hb).uv).length() < 1e-5);
     assert_eq!(a.lights.len(), b.lights.len());
+}
+
+/// pbrt-v4's media: `MakeNamedMedium "homogeneous"` becomes our medium (σ_t = scale (σ_a +
+/// σ_s), albedo σ_s / σ_t, Henyey–Greenstein g), `MediumInterface` gives a shape its interior
+/// and exterior where its two sides differ and the camera its outside, and `Material
+/// "interface"` is `null`: the scene (camera in fog, a glass ball of milk, an interface ball of
+/// smoke, a floor and a spherical lamp) loads as the same scene written in TOML, and `path`
+/// renders the two alike (image means within 4 standard errors).
+#[test]
+fn pbrt_media_mean_what_pbrt_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let pbrt = "LookAt 0 1 3.5  0 0.8 0  0 1 0\n\
+        MediumInterface \"fog\" \"fog\"\n\
+        Camera \"perspective\" \"float fov\" 50\n\
+        Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 12\n\
+        PixelFilter \"box\"\n\
+        MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [0.03 0.08 0.15] \"rgb sigma_s\" [0.27 0.32 0.35] \"float g\" 0.5\n\
+        MakeNamedMedium \"milk\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [0.1 0.2 0.4] \"rgb sigma_s\" [1.9 1.8 1.6] \"float scale\" 0.5\n\
+        MakeNamedMedium \"smoke\" \"string type\" \"homogeneous\" \"float g\" -0.3\n\
+        WorldBegin\n\
+        Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n\
+        Shape \"trianglemesh\" \"point3 P\" [-3 0 -3  3 0 -3  3 0 3  -3 0 3] \"integer indices\" [0 2 1 0 3 2]\n\
+        AttributeBegin\n\
+          AreaLightSource \"diffuse\" \"rgb L\" [6 6 6]\n\
+          Translate 0 2.5 0\n\
+          Shape \"sphere\" \"float radius\" 0.3\n\
+        AttributeEnd\n\
+        AttributeBegin\n\
+          MediumInterface \"milk\" \"fog\"\n\
+          Material \"dielectric\" \"float eta\" 1.3\n\
+          Translate 0.5 0.5 0\n\
+          Shape \"sphere\" \"float radius\" 0.5\n\
+        AttributeEnd\n\
+        AttributeBegin\n\
+          MediumInterface \"smoke\" \"fog\"\n\
+          Material \"interface\"\n\
+          Translate -0.6 0.6 -0.3\n\
+          Shape \"sphere\" \"float radius\" 0.5\n\
+        AttributeEnd\n";
+    let toml = "[camera]\neye = [0, 1, 3.5]\nlook_at = [0, 0.8, 0]\nup = [0, 1, 0]\nfov_y = 50\nresolution = [16, 12]\nmedium = \"fog\"\n\
+        [materials.white]\ntype = \"diffuse\"\nreflectance = [0.7, 0.7, 0.7]\n\
+        [materials.glass]\ntype = \"dielectric\"\nior = 1.3\n\
+        [materials.boundary]\ntype = \"null\"\n\
+        [media.fog]\ntype = \"homogeneous\"\nsigma_t = [0.3, 0.4, 0.5]\nalbedo = [0.9, 0.8, 0.7]\nphase = { type = \"hg\", g = 0.5 }\n\
+        [media.milk]\ntype = \"homogeneous\"\nsigma_t = [2, 2, 2]\nscale = 0.5\nalbedo = [0.95, 0.9, 0.8]\nphase = { type = \"hg\", g = 0 }\n\
+        [media.smoke]\ntype = \"homogeneous\"\nsigma_t = [2, 2, 2]\nalbedo = [0.5, 0.5, 0.5]\nphase = { type = \"hg\", g = -0.3 }\n\
+        [[shapes]]\ntype = \"quad\"\nmaterial = \"white\"\ncenter = [0, 0, 0]\nsize = [6, 6]\nfacing = \"+y\"\n\
+        [[shapes]]\ntype = \"sphere\"\nmaterial = \"white\"\ncenter = [0, 2.5, 0]\nradius = 0.3\nemission = { radiance = [6, 6, 6] }\n\
+        [[shapes]]\ntype = \"sphere\"\nmaterial = \"glass\"\ncenter = [0.5, 0.5, 0]\nradius = 0.5\ninterior = \"milk\"\nexterior = \"fog\"\n\
+        [[shapes]]\ntype = \"sphere\"\nmaterial = \"boundary\"\ncenter = [-0.6, 0.6, -0.3]\nradius = 0.5\ninterior = \"smoke\"\nexterior = \"fog\"\n";
+    let (p, t) = (
+        load(dir.path(), "fog.pbrt", pbrt).unwrap(),
+        load(dir.path(), "fog.toml", toml).unwrap(),
+    );
+    let medium = |s: &Scene, m: Option<u32>| m.map(|i| s.media[i as usize].name.clone());
+    assert_eq!(medium(&p, p.camera_medium).as_deref(), Some("fog"));
+    for name in ["fog", "milk", "smoke"] {
+        let find = |s: &Scene| s.media.iter().find(|m| m.name == name).cloned().unwrap();
+        let (a, b) = (find(&p), find(&t));
+        assert!(
+            (a.sigma_t - b.sigma_t).abs().max_element() < 1e-6,
+            "{name}: σ_t {} vs {}",
+            a.sigma_t,
+            b.sigma_t
+        );
+        assert!(
+            (a.albedo_at(glam::Vec3::ZERO) - b.albedo_at(glam::Vec3::ZERO))
+                .abs()
+                .max_element()
+                < 1e-6,
+            "{name}: albedo"
+        );
+        assert_eq!(a.phase.mean_cosine(), b.phase.mean_cosine(), "{name}: g");
+    }
+    // Every sphere's media: the lamp none (no MediumInterface transition), the balls theirs.
+    let spheres = |s: &Scene| -> Vec<(Option<String>, Option<String>)> {
+        s.attrs
+            .iter()
+            .zip(&s.primitives)
+            .filter(|(_, prim)| matches!(prim, photon_bench::geometry::Primitive::Sphere { .. }))
+            .map(|(a, _)| (medium(s, a.interior), medium(s, a.exterior)))
+            .collect()
+    };
+    let mut sp = spheres(&p);
+    sp.sort();
+    let mut st = spheres(&t);
+    st.sort();
+    assert_eq!(sp, st);
+    assert!(sp.contains(&(Some("milk".into()), Some("fog".into()))), "{sp:?}");
+    let passed = |s: &Scene| {
+        s.attrs
+            .iter()
+            .filter(|a| s.materials[a.material as usize].opacity_at(|| Vec2::ZERO) == 0.0)
+            .count()
+    };
+    assert!(passed(&p) > 0 && passed(&p) == passed(&t), "`interface` is `null`");
+    let mean = |s: &Scene| agreement::image_mean(s, "path", "max_depth = 8", 64);
+    agreement::assert_agrees("pbrt media", mean(&p), mean(&t));
 }

@@ -20,6 +20,15 @@
 //!   (its measured data, not pbrt's own tables: warned); its default is copper.
 //! - `mix` with `amount` a = our blend of weight a (pbrt picks the second material with
 //!   probability a per hit: the same mean).
+//! - Media: `MakeNamedMedium` of type `homogeneous` becomes our homogeneous medium with
+//!   σ_t = `scale` (σ_a + σ_s) and albedo σ_s / σ_t, its phase function Henyey–Greenstein with
+//!   `g` (pbrt's defaults σ_a = σ_s = 1, `scale` 1, `g` 0); `MediumInterface "inside"
+//!   "outside"` is part of the graphics state (one name: both sides; "": vacuum); a shape takes
+//!   it when its two sides differ — pbrt's `IsMediumTransition`; otherwise a ray keeps its
+//!   medium there, which is what a shape without media means to us — and the camera takes the
+//!   interface's outside at `Camera`. `Material "interface"` is our `null`. Emitting media
+//!   (`Le`), `preset` scattering properties and grid media (`uniformgrid`, `rgbgrid`, `cloud`,
+//!   `nanovdb`) are refused.
 
 use super::syntax::{Directive, Param, Value};
 use crate::error::{Error, Result};
@@ -35,6 +44,9 @@ struct State {
     material: Option<String>,
     area_light: Option<desc::EmissionDesc>,
     reverse_orientation: bool,
+    /// `MediumInterface`: the media inside and outside the shapes that follow (`None`: vacuum).
+    medium_inside: Option<String>,
+    medium_outside: Option<String>,
 }
 
 pub struct Translator<'a> {
@@ -59,6 +71,10 @@ pub struct Translator<'a> {
     defining: Option<String>,
     lights: Vec<desc::LightDesc>,
     environment: Option<desc::EnvironmentDesc>,
+    /// `MakeNamedMedium`s, and the media `MediumInterface` named (with where), checked once
+    /// the whole file is read (pbrt resolves the names at the end too).
+    media: BTreeMap<String, desc::MediumDesc>,
+    media_named: Vec<(String, String)>,
     warnings: Vec<String>,
     /// Files read for parameters (spectra), with their bytes, for the scene's hash.
     pub files_read: Vec<(std::path::PathBuf, Vec<u8>)>,
@@ -74,6 +90,8 @@ impl<'a> Translator<'a> {
                 material: None,
                 area_light: None,
                 reverse_orientation: false,
+                medium_inside: None,
+                medium_outside: None,
             },
             stack: Vec::new(),
             named_coordinate_systems: BTreeMap::new(),
@@ -91,6 +109,8 @@ impl<'a> Translator<'a> {
             defining: None,
             lights: Vec::new(),
             environment: None,
+            media: BTreeMap::new(),
+            media_named: Vec::new(),
             warnings: Vec::new(),
             files_read: Vec::new(),
         }
@@ -248,10 +268,35 @@ impl<'a> Translator<'a> {
                 self.state = self.stack.pop().ok_or_else(|| d.err("no ObjectBegin to end"))?;
             }
             "ObjectInstance" => self.instance(d, &name()?)?,
+            "MakeNamedMedium" => {
+                let n = name()?;
+                let medium = self.medium(d)?;
+                self.media.insert(n, medium);
+            }
+            "MediumInterface" => {
+                let names: Vec<String> = d
+                    .args
+                    .iter()
+                    .map(|a| match a {
+                        Value::Str(s) => Ok(s.clone()),
+                        _ => Err(d.err("expected one or two quoted medium names (inside, outside)")),
+                    })
+                    .collect::<Result<_>>()?;
+                let (inside, outside) = match &names[..] {
+                    [one] => (one.clone(), one.clone()),
+                    [inside, outside] => (inside.clone(), outside.clone()),
+                    _ => return Err(d.err("expected one or two quoted medium names (inside, outside)")),
+                };
+                let named = |n: String| (!n.is_empty()).then_some(n);
+                for n in [&inside, &outside].into_iter().filter(|n| !n.is_empty()) {
+                    self.media_named.push((n.clone(), d.at.clone()));
+                }
+                self.state.medium_inside = named(inside);
+                self.state.medium_outside = named(outside);
+            }
             other => {
                 return Err(d.err(format!(
-                    "{other} is not supported (media, animated transforms and named attributes are \
-                     not read yet)"
+                    "{other} is not supported (animated transforms and named attributes are not read yet)"
                 )));
             }
         }
@@ -351,7 +396,7 @@ impl<'a> Translator<'a> {
                 lens
             },
             flip_x,
-            medium: None,
+            medium: self.state.medium_outside.clone(),
         });
         Ok(())
     }
@@ -431,6 +476,11 @@ impl<'a> Translator<'a> {
         if !self.stack.is_empty() {
             return Err(Error::new(format!("{}: an AttributeBegin is never ended", self.file)));
         }
+        if let Some((n, at)) = self.media_named.iter().find(|(n, _)| !self.media.contains_key(n)) {
+            return Err(Error::new(format!(
+                "{at}, MediumInterface: no medium named {n:?} (MakeNamedMedium it)"
+            )));
+        }
         let desc = SceneDesc {
             name: None,
             camera,
@@ -439,7 +489,7 @@ impl<'a> Translator<'a> {
             user_paths: Vec::new(),
             environment: self.environment.take(),
             lights: std::mem::take(&mut self.lights),
-            media: Default::default(),
+            media: std::mem::take(&mut self.media),
         };
         Ok((
             desc,
@@ -481,5 +531,62 @@ impl Translator<'_> {
 
     fn point(&self, p: DVec3) -> DVec3 {
         (self.state.ctm * DVec4::new(p.x, p.y, p.z, 1.0)).truncate()
+    }
+
+    /// The current `MediumInterface` as a shape's interior and exterior, when its sides differ
+    /// (module doc).
+    fn shape_media(&self) -> Option<(Option<String>, Option<String>)> {
+        let (inside, outside) = (&self.state.medium_inside, &self.state.medium_outside);
+        (inside != outside).then(|| (inside.clone(), outside.clone()))
+    }
+
+    /// `MakeNamedMedium`'s medium (module doc).
+    fn medium(&mut self, d: &Directive) -> Result<desc::MediumDesc> {
+        let kind = string_param(d, &d.params, "type")?.ok_or_else(|| d.err("expected \"string type\""))?;
+        if kind != "homogeneous" {
+            return Err(d.err(format!(
+                "medium type {kind:?} is not read (homogeneous; grid media are not read yet)"
+            )));
+        }
+        check_known(
+            d,
+            &d.params,
+            &["type", "sigma_a", "sigma_s", "scale", "g", "Le", "Lescale", "preset"],
+        )?;
+        if string_param(d, &d.params, "preset")?.is_some_and(|p| !p.is_empty()) {
+            return Err(d.err("preset: named scattering properties are not read; give sigma_a and sigma_s"));
+        }
+        let rgb = |name: &str| -> Result<Option<[f64; 3]>> {
+            match self.colour(d, &d.params, name, false)? {
+                Some(Color::Rgb(c)) => Ok(Some(c.0)),
+                Some(Color::Texture(_)) => Err(d.err(format!("{name}: a medium's coefficient cannot be a texture"))),
+                None => Ok(None),
+            }
+        };
+        if rgb("Le")?.is_some_and(|le| le.iter().any(|&c| c != 0.0)) {
+            return Err(d.err("Le: emitting media are not rendered"));
+        }
+        let (sigma_a, sigma_s) = (rgb("sigma_a")?.unwrap_or([1.0; 3]), rgb("sigma_s")?.unwrap_or([1.0; 3]));
+        if sigma_a.iter().chain(&sigma_s).any(|&c| !(c >= 0.0 && c.is_finite())) {
+            return Err(d.err("sigma_a, sigma_s: expected finite coefficients >= 0"));
+        }
+        let scale = float_param(d, &d.params, "scale")?.unwrap_or(1.0);
+        if !(scale > 0.0 && scale.is_finite()) {
+            return Err(d.err(format!("scale: expected a number > 0, got {scale}")));
+        }
+        let g = float_param(d, &d.params, "g")?.unwrap_or(0.0);
+        if !(g > -1.0 && g < 1.0) {
+            return Err(d.err(format!("g: expected a mean cosine in (-1, 1), got {g}")));
+        }
+        let sigma_t: [f64; 3] = std::array::from_fn(|c| sigma_a[c] + sigma_s[c]);
+        let albedo: [f64; 3] = std::array::from_fn(|c| if sigma_t[c] > 0.0 { sigma_s[c] / sigma_t[c] } else { 0.0 });
+        Ok(desc::MediumDesc::Homogeneous(desc::HomogeneousDesc {
+            sigma_t: Some(Fixed(sigma_t)),
+            scale: Some(scale),
+            albedo: Some(Fixed(albedo)),
+            albedo_grid: None,
+            phase: Some(desc::PhaseDesc::Hg(desc::HgDesc { g })),
+            sample_emitters: None,
+        }))
     }
 }

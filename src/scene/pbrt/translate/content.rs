@@ -417,6 +417,10 @@ impl Translator<'_> {
                 )));
             }
         };
+        let mut shape = shape;
+        if let Some((inside, outside)) = self.shape_media() {
+            shape.set_media(inside, outside);
+        }
         let label = format!("{}, Shape \"{kind}\"", d.at);
         if let Some(object) = &self.defining {
             if self.state.area_light.is_some() {

@@ -9,6 +9,11 @@ impl Translator<'_> {
     /// One material of pbrt-v4 as ours (module doc for the mappings).
     pub(super) fn material(&mut self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
         Ok(match kind {
+            // A medium boundary that does not scatter: our `null`.
+            "interface" => {
+                check_known(d, params, &[])?;
+                MaterialDesc::Null(desc::Null {})
+            }
             "diffuse" => {
                 check_known(d, params, &["reflectance"])?;
                 MaterialDesc::Diffuse(desc::Diffuse {
