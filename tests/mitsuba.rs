@@ -394,6 +394,16 @@ fn bad_xml_is_refused_naming_the_element() {
             &["<shape type=\"sdfgrid\">", "unsupported shape"],
         ),
         (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape>"
+            )),
+            &[
+                "<shape type=\"shapegroup\" id=\"g\">",
+                "unsupported shape",
+                "instancing",
+            ],
+        ),
+        (
             scene_xml(&format!("{LIGHT}<emitter type=\"directionalarea\"/>")),
             &["<emitter type=\"directionalarea\">", "unsupported emitter"],
         ),

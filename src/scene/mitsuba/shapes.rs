@@ -8,9 +8,36 @@ use crate::scene::load::cylinder_frame;
 use glam::{DMat3, DMat4, DVec3};
 use roxmltree::Node;
 
+/// The shape types read.
+const SHAPES: [&str; 10] = [
+    "obj",
+    "ply",
+    "serialized",
+    "rectangle",
+    "cube",
+    "sphere",
+    "disk",
+    "cylinder",
+    "linearcurve",
+    "bsplinecurve",
+];
+
+/// The refusal of shape type `kind`: instancing (`shapegroup`, `instance`) named as such.
+fn unsupported_shape(kind: &str) -> String {
+    let why = match kind {
+        "shapegroup" | "instance" => " (instancing is not read yet)",
+        _ => "",
+    };
+    format!("unsupported shape {kind:?}{why} ({})", SHAPES.join(", "))
+}
+
 impl<'a, 'i> Reader<'a, 'i> {
     pub(super) fn shape(&mut self, n: Node<'a, 'i>, index: usize) -> Result<ShapeDesc> {
         let kind = self.required(n, "type")?;
+        // Before its children: a `shapegroup` holds shapes, which would be refused as elements.
+        if !SHAPES.contains(&kind.as_str()) {
+            return Err(self.err(n, unsupported_shape(&kind)));
+        }
         let mut o = self.obj(n)?;
         let to_world = self.transform(&mut o, "to_world")?.map(|(_, m)| m);
         let transform = to_world.map(desc::TransformDesc::from_matrix);
@@ -232,14 +259,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     emission,
                 })
             }
-            other => {
-                return Err(self.err(
-                    n,
-                    format!(
-                        "unsupported shape {other:?} (obj, ply, serialized, rectangle, cube, sphere, disk, cylinder, linearcurve, bsplinecurve)"
-                    ),
-                ));
-            }
+            other => return Err(self.err(n, unsupported_shape(other))),
         };
         self.finish(&o)?;
         let mut shape = shape;
