@@ -188,7 +188,7 @@ pub fn trace(scene: &Scene, params: &Walk, sampling: BsdfSampling, mut ray: Ray,
     let (mut l, mut beta) = (Vec3::ZERO, Vec3::ONE);
     // The hero channel that draws every free flight, and Π p_c / p_h of the flights so far
     // (module doc of [`crate::medium`]): every estimate is `spectral_estimate(beta, ratio)`.
-    let hero = ((rng.uniform() * 3.0) as usize).min(2);
+    let hero = crate::path_space::media::MediaWalk::draw_hero(rng);
     let mut ratio = Vec3::ONE;
     let mut medium = scene.camera_medium;
     // The density with which the last scattering vertex drew `ray`'s direction, whether it was
