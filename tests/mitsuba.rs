@@ -395,12 +395,75 @@ fn bad_xml_is_refused_naming_the_element() {
         ),
         (
             scene_xml(&format!(
-                "{LIGHT}<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape>"
+                "{LIGHT}<shape type=\"shapegroup\" id=\"g\"><shape type=\"shapegroup\"/></shape>"
+            )),
+            &["<shape type=\"shapegroup\">", "nested instancing"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape></shape>"
+            )),
+            &["<shape type=\"sphere\">", "emitter in a shapegroup"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"shapegroup\"><shape type=\"sphere\"/></shape>"
+            )),
+            &["<shape type=\"shapegroup\">", "needs an `id`"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"shapegroup\" id=\"g\"><bsdf type=\"diffuse\"/></shape>"
+            )),
+            &["<bsdf type=\"diffuse\">", "in a shapegroup (shapes only)"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"instance\"><ref id=\"later\"/></shape>\
+                 <shape type=\"shapegroup\" id=\"later\"><shape type=\"sphere\"/></shape>"
+            )),
+            &[
+                "<ref id=\"later\">",
+                "no <shape type=\"shapegroup\" id=\"later\"> before this instance",
+            ],
+        ),
+        (
+            scene_xml(&format!("{LIGHT}<shape type=\"instance\"/>")),
+            &["<shape type=\"instance\">", "exactly one shapegroup"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"instance\"><shape type=\"sphere\"/></shape>"
+            )),
+            &["<shape type=\"sphere\">", "a <ref> to a shapegroup only"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"instance\"><shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape></shape>"
             )),
             &[
                 "<shape type=\"shapegroup\" id=\"g\">",
-                "unsupported shape",
-                "instancing",
+                "inside an instance",
+                "Mitsuba 3 does not load it",
+            ],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape>\
+                 <shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><scale x=\"-1\"/></transform></shape>"
+            )),
+            &["<transform name=\"to_world\">", "mirroring"],
+        ),
+        (
+            scene_xml(&format!(
+                "{LIGHT}<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape>\
+                 <shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><scale x=\"2\"/></transform></shape>"
+            )),
+            &[
+                "<shape type=\"instance\">",
+                "instance of line",
+                "<shape type=\"sphere\">",
+                "uniform scale",
             ],
         ),
         (
@@ -611,6 +674,65 @@ fn include_and_path_read_a_scene_split_over_files() {
     std::fs::write(dir.path().join("lib/parts.xml"), parts.replace("0.25", "0.3")).unwrap();
     let (c, _) = load_scene_with_stats(&dir.path().join("main.xml")).unwrap();
     assert_ne!(before, c.content_hash, "the hash covers included files");
+}
+
+/// `shapegroup` and `instance` (Mitsuba 3's instancing) are the group's shapes placed by each
+/// instance's `to_world` after their own: a scene that instances a group three times is the
+/// scene with every copy
+/// written out, its transform the shape's steps followed by the instance's; a group never
+/// instanced draws nothing.
+#[test]
+fn instances_are_their_group_placed_by_to_world() {
+    let materials = "<bsdf type=\"twosided\" id=\"white\"><bsdf type=\"diffuse\"/></bsdf>\n\
+         <bsdf type=\"twosided\" id=\"red\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5 0.1 0.1\"/></bsdf></bsdf>";
+    let tri = "<string name=\"filename\" value=\"tri.obj\"/><boolean name=\"face_normals\" value=\"true\"/><ref id=\"white\"/>";
+    let ball =
+        "<point name=\"center\" x=\"0.5\" y=\"0\" z=\"0\"/><float name=\"radius\" value=\"0.25\"/><ref id=\"red\"/>";
+    let (tri_steps, box_steps) = (
+        "<scale value=\"2\"/><rotate y=\"1\" angle=\"30\"/>",
+        "<scale x=\"0.1\" y=\"0.2\" z=\"0.3\"/><translate z=\"-1\"/>",
+    );
+    let members = format!(
+        "<shape type=\"obj\">{tri}<transform name=\"to_world\">{tri_steps}</transform></shape>\n\
+         <shape type=\"sphere\">{ball}</shape>\n\
+         <shape type=\"cube\"><ref id=\"red\"/><transform name=\"to_world\">{box_steps}</transform></shape>"
+    );
+    let places = [
+        "<rotate z=\"1\" angle=\"45\"/><translate x=\"1\" y=\"0.2\"/>",
+        "<scale value=\"0.5\"/><translate x=\"-1\" y=\"0.5\" z=\"0.3\"/>",
+        "<translate y=\"-0.7\"/>",
+    ];
+    let instanced = scene_xml(&format!(
+        "{LIGHT}\n{materials}\n<shape type=\"shapegroup\" id=\"g\">{members}</shape>\n\
+         <shape type=\"shapegroup\" id=\"unused\">{members}</shape>\n\
+         <shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\">{}</transform></shape>\n\
+         <shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\">{}</transform></shape>\n\
+         <shape type=\"instance\"><transform name=\"to_world\">{}</transform><ref id=\"g\"/></shape>",
+        places[0], places[1], places[2]
+    ));
+    let mut written_out = format!("{LIGHT}\n{materials}\n");
+    for place in places {
+        written_out += &format!(
+            "<shape type=\"obj\">{tri}<transform name=\"to_world\">{tri_steps}{place}</transform></shape>\n\
+             <shape type=\"sphere\">{ball}<transform name=\"to_world\">{place}</transform></shape>\n\
+             <shape type=\"cube\"><ref id=\"red\"/><transform name=\"to_world\">{box_steps}{place}</transform></shape>\n"
+        );
+    }
+    let dir = write_files(&[
+        ("instanced.xml", &instanced),
+        ("written-out.xml", &scene_xml(&written_out)),
+        ("tri.obj", TRIANGLE_OBJ),
+    ]);
+    let (a, stats) = load_scene_with_stats(&dir.path().join("instanced.xml")).unwrap();
+    assert!(stats.warnings.is_empty(), "{:?}", stats.warnings);
+    let (b, _) = load_scene_with_stats(&dir.path().join("written-out.xml")).unwrap();
+    assert_same_scene(&a, &b, "instanced vs written out");
+    // The control: a copy placed differently is another scene.
+    let moved = instanced.replacen("<translate y=\"-0.7\"/>", "<translate y=\"-0.6\"/>", 1);
+    std::fs::write(dir.path().join("moved.xml"), moved).unwrap();
+    let (c, _) = load_scene_with_stats(&dir.path().join("moved.xml")).unwrap();
+    let caught = std::panic::catch_unwind(|| assert_same_scene(&c, &b, "moved"));
+    assert!(caught.is_err(), "moving one instance must change the scene");
 }
 
 /// A missing include, an include cycle and an include that is not a scene are refused in

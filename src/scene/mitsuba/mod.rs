@@ -29,6 +29,7 @@
 //! | `shape` `bsplinecurve`: `filename`, `to_world` | `bspline_curve`: open tubes about cubic B-splines, tessellated, back faces culled as Embree culls them; not as an emitter |
 //! | `shape` `cylinder`: `p0`, `p1`, `radius` (defaults 0, (0, 0, 1), 1), `flip_normals`, `to_world` | `cylinder` with the same fields (Mitsuba's frame about the axis, so its (u, v)), tessellated likewise; a radius ≤ 0 or p0 = p1 is refused, an emitting tube made elliptic or sheared by `to_world` warned about (Mitsuba samples its light as a round one's) |
 //! | `shape` `obj`: `filename`, `face_normals`, `to_world` | `mesh`; `face_normals = true` ignores the file's normals |
+//! | `shape` `shapegroup` `id` at the top level, `shape` `instance` with `<ref id>` and `to_world` | a copy of each of the group's shapes per instance, the instance's `to_world` after the shape's own (flattened); emitters, nested groups and mirroring instances refused |
 //! | `bsdf` `diffuse` (`reflectance`, default 0.5) | `diffuse` |
 //! | `bsdf` `conductor` with `material = "none"` (the default) and no `eta`/`k`: `specular_reflectance` | `mirror` (the same perfect mirror) |
 //! | `bsdf` `conductor` with a named `material` (one of Mitsuba's 71; an unknown name is an error listing them) or `eta`/`k` (unbounded colours) | `conductor` |
@@ -194,6 +195,7 @@ pub fn import_with(file: &str, dir: &Path, text: &str, params: &[(String, String
         texture_ids: BTreeMap::new(),
         sampler_ids: std::collections::BTreeSet::new(),
         media: BTreeMap::new(),
+        shapegroups: BTreeMap::new(),
     };
     let imported = r.scene(doc.root_element())?;
     if let Some((name, _)) = params.iter().find(|(name, _)| !used.borrow().contains(name)) {
@@ -252,6 +254,8 @@ struct Reader<'a, 'i> {
     sampler_ids: std::collections::BTreeSet<String>,
     /// Every medium by name: top-level `<medium id>`s and those nested in shapes and sensors.
     media: BTreeMap<String, desc::MediumDesc>,
+    /// Each top-level `<shape type="shapegroup" id>`, for instances to `<ref>`.
+    shapegroups: BTreeMap<String, shapes::ShapeGroup>,
 }
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -503,9 +507,13 @@ impl<'a, 'i> Reader<'a, 'i> {
                     }
                     parts.camera = Some(self.sensor(n)?);
                 }
+                "shape" if n.attribute("type") == Some("shapegroup") => self.shapegroup(n)?,
+                "shape" if n.attribute("type") == Some("instance") => {
+                    self.instance(n, &mut parts.shapes, &mut parts.labels)?;
+                }
                 "shape" => {
                     parts.labels.push(self.label(n));
-                    let shape = self.shape(n, parts.shapes.len())?;
+                    let shape = self.shape(n, &format!("shape{}", parts.shapes.len()))?;
                     parts.shapes.push(shape);
                 }
                 "integrator" => self.warn(
@@ -597,6 +605,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             texture_ids: std::mem::take(&mut self.texture_ids),
             sampler_ids: std::mem::take(&mut self.sampler_ids),
             media: std::mem::take(&mut self.media),
+            shapegroups: std::mem::take(&mut self.shapegroups),
         };
         let read = inner.scene_elements(doc.root_element(), parts);
         self.defaults = inner.defaults;
@@ -605,6 +614,7 @@ impl<'a, 'i> Reader<'a, 'i> {
         self.bsdf_ids = inner.bsdf_ids;
         self.emitter_ids = inner.emitter_ids;
         self.media = inner.media;
+        self.shapegroups = inner.shapegroups;
         self.texture_ids = inner.texture_ids;
         self.sampler_ids = inner.sampler_ids;
         self.including = inner.including;

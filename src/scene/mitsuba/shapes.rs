@@ -22,19 +22,23 @@ const SHAPES: [&str; 10] = [
     "bsplinecurve",
 ];
 
-/// The refusal of shape type `kind`: instancing (`shapegroup`, `instance`) named as such.
+/// The refusal of shape type `kind`.
 fn unsupported_shape(kind: &str) -> String {
-    let why = match kind {
-        "shapegroup" | "instance" => " (instancing is not read yet)",
-        _ => "",
-    };
-    format!("unsupported shape {kind:?}{why} ({})", SHAPES.join(", "))
+    format!(
+        "unsupported shape {kind:?} ({}, and shapegroup with instance)",
+        SHAPES.join(", ")
+    )
 }
 
+/// A `shapegroup`'s shapes, each with the label of its element, kept for `instance`s to copy.
+pub(super) type ShapeGroup = Vec<(ShapeDesc, String)>;
+
 impl<'a, 'i> Reader<'a, 'i> {
-    pub(super) fn shape(&mut self, n: Node<'a, 'i>, index: usize) -> Result<ShapeDesc> {
+    /// A shape element; `key` names what the shape brings without a name of its own (an inline
+    /// BSDF `key`, inline media `key-interior` and `key-exterior`).
+    pub(super) fn shape(&mut self, n: Node<'a, 'i>, key: &str) -> Result<ShapeDesc> {
         let kind = self.required(n, "type")?;
-        // Before its children: a `shapegroup` holds shapes, which would be refused as elements.
+        // Before its children, which a type we do not read may hold in forms refused as elements.
         if !SHAPES.contains(&kind.as_str()) {
             return Err(self.err(n, unsupported_shape(&kind)));
         }
@@ -59,7 +63,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     if slot.is_some() {
                         return Err(self.err(c, format!("a second {side} medium for this shape")));
                     }
-                    *slot = Some(self.medium_child(c, format!("shape{index}-{side}"))?);
+                    *slot = Some(self.medium_child(c, format!("{key}-{side}"))?);
                 }
                 ("medium", _) => {
                     return Err(self.err(c, "a medium in a shape needs name=\"interior\" or name=\"exterior\""));
@@ -85,7 +89,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     let m = self.bsdf(c)?;
                     let name = match self.attr(c, "id")? {
                         Some(id) => id,
-                        None => format!("shape{index}"),
+                        None => key.to_string(),
                     };
                     if self.materials.contains_key(&name) {
                         return Err(self.err(c, format!("id {name:?} is used twice")));
@@ -265,6 +269,113 @@ impl<'a, 'i> Reader<'a, 'i> {
         let mut shape = shape;
         shape.set_media(interior, exterior);
         Ok(shape)
+    }
+
+    /// `<shape type="shapegroup" id>`: shapes drawn only where an `instance` places them. As
+    /// Mitsuba 3's `ShapeGroup` does, a group may not hold an emitter, a group or an instance.
+    pub(super) fn shapegroup(&mut self, n: Node<'a, 'i>) -> Result<()> {
+        let Some(id) = self.attr(n, "id")? else {
+            return Err(self.err(n, "a top-level shapegroup needs an `id` for instances to <ref> it"));
+        };
+        let group = self.group_shapes(n, &id)?;
+        if self.shapegroups.insert(id.clone(), group).is_some() {
+            return Err(self.err(n, format!("id {id:?} is used twice")));
+        }
+        Ok(())
+    }
+
+    fn group_shapes(&mut self, n: Node<'a, 'i>, id: &str) -> Result<ShapeGroup> {
+        let o = self.obj(n)?;
+        self.finish(&o)?;
+        let mut group = ShapeGroup::new();
+        for c in o.children {
+            if !c.has_tag_name("shape") {
+                return Err(self.err(
+                    c,
+                    format!(
+                        "unsupported element <{}> in a shapegroup (shapes only)",
+                        c.tag_name().name()
+                    ),
+                ));
+            }
+            if matches!(self.required(c, "type")?.as_str(), "shapegroup" | "instance") {
+                return Err(self.err(c, "nested instancing is not supported (Mitsuba 3 refuses it too)"));
+            }
+            let shape = self.shape(c, &format!("{id}-shape{}", group.len()))?;
+            if shape.common().2.is_some() {
+                return Err(self.err(
+                    c,
+                    "an emitter in a shapegroup: emitters are not instanced (Mitsuba 3 refuses them too)",
+                ));
+            }
+            group.push((shape, self.label(c)));
+        }
+        Ok(group)
+    }
+
+    /// `<shape type="instance">`: a copy of every shape of its group (a `<ref>` to a shapegroup
+    /// read before it), `to_world` applied after each shape's own transform, as Mitsuba 3's
+    /// `Instance` does. Instances are flattened into the scene: exact,
+    /// without Mitsuba's memory savings. A mirroring `to_world` is refused: Mitsuba then turns
+    /// the instanced normals by the inverse transpose and flags the frame as flipped, where our
+    /// flattened meshes would take their normals from the mirrored winding.
+    pub(super) fn instance(
+        &mut self,
+        n: Node<'a, 'i>,
+        shapes: &mut Vec<ShapeDesc>,
+        labels: &mut Vec<String>,
+    ) -> Result<()> {
+        let mut o = self.obj(n)?;
+        let to_world = self.transform(&mut o, "to_world")?;
+        self.finish(&o)?;
+        let [c] = o.children[..] else {
+            return Err(self.err(
+                n,
+                "an instance holds exactly one shapegroup (a <ref id> to one, or the <shape type=\"shapegroup\"> itself)",
+            ));
+        };
+        let group = match (c.tag_name().name(), c.attribute("type")) {
+            ("ref", _) => {
+                let id = self.required(c, "id")?;
+                match self.shapegroups.get(&id) {
+                    Some(g) => g.clone(),
+                    None => {
+                        return Err(self.err(
+                            c,
+                            format!("no <shape type=\"shapegroup\" id=\"{id}\"> before this instance"),
+                        ));
+                    }
+                }
+            }
+            ("shape", Some("shapegroup")) => {
+                return Err(self.err(
+                    c,
+                    "a shapegroup written inside an instance (Mitsuba 3 does not load it either): write it at the top \
+                     level with an `id` and <ref> it",
+                ));
+            }
+            _ => return Err(self.err(c, "an instance holds a <ref> to a shapegroup only (Mitsuba 3's rule)")),
+        };
+        if let Some((p, m)) = to_world
+            && m.determinant() < 0.0
+        {
+            return Err(self.err(
+                p,
+                "to_world mirrors (negative determinant): an instance under a mirroring transform is not read yet",
+            ));
+        }
+        let here = self.label(n);
+        for (mut shape, label) in group {
+            if let Some((_, m)) = to_world {
+                let t = shape
+                    .transform_mut()
+                    .get_or_insert_with(|| desc::TransformDesc(Vec::new()));
+                t.0.extend(desc::TransformDesc::from_matrix(m).0);
+            }
+            shapes.push(shape);
+            labels.push(format!("{here}, instance of {label}"));
+        }
+        Ok(())
     }
 
     /// A cylinder's `p0`, `p1` (defaults (0, 0, 0) and (0, 0, 1)) and `radius` (default 1), as
