@@ -912,3 +912,127 @@ fn pbrt_media_mean_what_pbrt_says() {
     let mean = |s: &Scene| agreement::image_mean(s, "path", "max_depth = 8", 64);
     agreement::assert_agrees("pbrt media", mean(&p), mean(&t));
 }
+
+/// pbrt-v4's `normalmap` on a material and `alpha` on shapes: at every floor hit the model's
+/// normal is the one pbrt-v4's `NormalMap` makes — the picture read linearly, bilinear with
+/// repeat at (u, 1 − v), 2c − 1 normalised in the frame (∂p/∂u, n × ∂p/∂u, n) — computed here
+/// from the picture's bytes; a shape's `float alpha` is its material's opacity and a
+/// `texture alpha` pbrt's checkerboard of α over (u, v), the material underneath unchanged.
+#[test]
+fn normal_maps_and_alpha_mean_what_pbrt_says() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 3 × 2 map of normals tilted every way (odd sizes catch a transposed lookup).
+    let texels: [[[u8; 3]; 3]; 2] = [
+        [[200, 128, 220], [90, 170, 230], [128, 60, 200]],
+        [[40, 128, 210], [160, 200, 190], [128, 128, 255]],
+    ];
+    agreement::write_png(&dir.path().join("tiles.png"), &texels);
+    let pbrt = "LookAt 0 5 3  0 0 0  0 1 0\n\
+        Camera \"perspective\" \"float fov\" 60\n\
+        Film \"rgb\" \"integer xresolution\" 20 \"integer yresolution\" 16\n\
+        WorldBegin\n\
+        LightSource \"distant\" \"point3 from\" [0 1 0] \"point3 to\" [0 0 0] \"rgb L\" [2 2 2]\n\
+        Texture \"checks\" \"float\" \"checkerboard\" \"float tex1\" 0.25 \"float tex2\" 1 \"float uscale\" 4 \"float vscale\" 4\n\
+        Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5] \"string normalmap\" \"tiles.png\"\n\
+        Shape \"trianglemesh\" \"point3 P\" [-4 0 4  4 0 4  4 0 -4  -4 0 -4] \"integer indices\" [0 1 2 0 2 3]\n\
+            \"point2 uv\" [0 0  1.5 0  1.5 2.5  0 2.5]\n\
+        Material \"diffuse\" \"rgb reflectance\" [0.8 0.2 0.2]\n\
+        AttributeBegin\n\
+          Translate 1 0.5 0\n\
+          Shape \"sphere\" \"float radius\" 0.5 \"float alpha\" 0.3\n\
+        AttributeEnd\n\
+        Shape \"trianglemesh\" \"point3 P\" [-2 0 -1  0 0 -1  0 2 -1  -2 2 -1] \"integer indices\" [0 1 2 0 2 3]\n\
+            \"point2 uv\" [0 0  1 0  1 1  0 1] \"texture alpha\" \"checks\"\n\
+        Shape \"trianglemesh\" \"point3 P\" [2 0 -2  3 0 -2  3 1 -2] \"float alpha\" 1\n";
+    let scene = load(dir.path(), "mapped.pbrt", pbrt).unwrap();
+    let channel = |x: i64, y: i64, c: usize| {
+        let (w, h) = (3i64, 2i64);
+        f32::from(texels[y.rem_euclid(h) as usize][x.rem_euclid(w) as usize][c]) / 255.0
+    };
+    let pbrt_normal = |uv: Vec2| {
+        let (x, y) = (uv.x * 3.0 - 0.5, (1.0 - uv.y) * 2.0 - 0.5);
+        let (xi, yi) = (x.floor(), y.floor());
+        let (dx, dy) = (x - xi, y - yi);
+        let (xi, yi) = (xi as i64, yi as i64);
+        let c = |k| {
+            (1.0 - dx) * (1.0 - dy) * channel(xi, yi, k)
+                + dx * (1.0 - dy) * channel(xi + 1, yi, k)
+                + (1.0 - dx) * dy * channel(xi, yi + 1, k)
+                + dx * dy * channel(xi + 1, yi + 1, k)
+        };
+        glam::Vec3::new(2.0 * c(0) - 1.0, 2.0 * c(1) - 1.0, 2.0 * c(2) - 1.0).normalize()
+    };
+    let (mut floor_hits, mut sheet_hits, mut ball_hits) = (0, 0, 0);
+    for y in 0..16 {
+        for x in 0..20 {
+            let ray = scene.camera.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let Some(hit) = scene.intersect(&ray) else { continue };
+            let uv = scene.uv(&hit);
+            let material = &scene.materials[hit.material as usize];
+            match material.opacity {
+                // The floor: ∂p/∂u = (8/1.5) x̂, its normal ŷ.
+                None if hit.p.y.abs() < 1e-4 => {
+                    floor_hits += 1;
+                    let bsdf = scene.bsdf(&hit);
+                    let Bsdf::NormalMapped(mapped) = &*bsdf else {
+                        panic!("a normal-mapped floor: {bsdf:?}")
+                    };
+                    let (s, n) = (glam::Vec3::X, glam::Vec3::Y);
+                    let local = pbrt_normal(uv);
+                    let want = local.x * s + local.y * n.cross(s) + local.z * n;
+                    let got = hit.frame.to_world(mapped.normal);
+                    assert!((got - want).length() < 2e-4, "uv {uv}: {got} vs pbrt's {want}");
+                }
+                // The triangle of α = 1 (pbrt's default): opaque, no mask.
+                None => assert!((hit.p.z + 2.0).abs() < 1e-4, "an opaque hit at {}", hit.p),
+                Some(_) if (hit.p - glam::Vec3::new(1.0, 0.5, 0.0)).length() < 0.5 + 1e-3 => {
+                    ball_hits += 1;
+                    assert_eq!(material.opacity_at(|| uv), 0.3);
+                }
+                Some(_) => {
+                    sheet_hits += 1;
+                    let even = ((4.0 * uv.x).floor() + (4.0 * uv.y).floor()) as i64 % 2 == 0;
+                    let want = if even { 0.25 } else { 1.0 };
+                    assert!(
+                        (material.opacity_at(|| uv) - want).abs() < 1e-6,
+                        "uv {uv}: {} vs {want}",
+                        material.opacity_at(|| uv)
+                    );
+                }
+            }
+            if material.opacity.is_some() {
+                let Bsdf::Lambertian(l) = &material.bsdf else {
+                    panic!("the masked material is the diffuse one: {:?}", material.bsdf)
+                };
+                assert!((l.reflectance - glam::Vec3::new(0.8, 0.2, 0.2)).length() < 1e-6);
+            }
+        }
+    }
+    assert!(
+        floor_hits > 100 && sheet_hits > 3 && ball_hits > 0,
+        "{floor_hits} {sheet_hits} {ball_hits}"
+    );
+    // α = 1 is opaque (pbrt's default): no mask on the last triangle; the two masked shapes
+    // share the red material in two masks.
+    let masks = scene.materials.iter().filter(|m| m.opacity.is_some()).count();
+    assert_eq!(masks, 2);
+    // An area light with α, and α outside [0, 1], are refused naming the line.
+    for (shape, expect) in [
+        (
+            "AreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\nShape \"sphere\" \"float alpha\" 0.5",
+            &["line 4", "area light with alpha"][..],
+        ),
+        (
+            "Shape \"sphere\" \"float alpha\" -0.5",
+            &["line 3", "alpha", "[0, 1]"][..],
+        ),
+        (
+            "Shape \"sphere\" \"texture alpha\" \"none\"",
+            &["line 3", "no float texture named \"none\""][..],
+        ),
+    ] {
+        let text = format!("WorldBegin\nMaterial \"diffuse\"\n{shape}\n");
+        let err = load(dir.path(), "bad.pbrt", &text).err().expect("refused").to_string();
+        assert_refused(&err, expect);
+    }
+}

@@ -22,11 +22,15 @@
 //!   `Accelerator`, `ColorSpace "srgb"`, `Option` ignored with a warning where they would
 //!   change nothing we render.
 //! - `Material`, `MakeNamedMaterial`, `NamedMaterial`: `diffuse`, `conductor`, `dielectric`,
-//!   `thindielectric`, `diffusetransmission`, `mix` ([`translate`] says how each maps).
-//! - `Texture` `float`/`spectrum` `checkerboard` (2D) and `imagemap`.
-//! - `Shape` `trianglemesh`, `bilinearmesh` (flat patches), `plymesh`, `sphere`, `disk`,
-//!   `cylinder` (whole ones).
-//! - `AreaLightSource` `diffuse`; `LightSource` `point`, `distant`, `infinite` (constant `L`).
+//!   `thindielectric`, `diffusetransmission`, `mix`, `coateddiffuse`, `coatedconductor`,
+//!   `interface` ([`translate`] says how each maps); a material's `normalmap`.
+//! - `Texture` `float`/`spectrum` `checkerboard` (2D), `imagemap` and `scale`.
+//! - `Shape` `trianglemesh`, `bilinearmesh` (flat patches), `loopsubdiv` ([`loop_subdiv`]),
+//!   `plymesh`, `sphere`, `disk`, `cylinder` (whole ones); `ObjectBegin`/`ObjectInstance`
+//!   (flattened); a shape's `alpha` (float or float texture: our mask).
+//! - `AreaLightSource` `diffuse`; `LightSource` `point`, `spot`, `distant`, `infinite`
+//!   (constant `L` or an equal-area image).
+//! - `MakeNamedMedium` `homogeneous`, `MediumInterface`.
 
 mod loop_subdiv;
 mod syntax;

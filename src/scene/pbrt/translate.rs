@@ -61,7 +61,11 @@ pub struct Translator<'a> {
     resolution: [u32; 2],
     filter: Option<desc::FilterDesc>,
     materials: BTreeMap<String, MaterialDesc>,
+    /// Spectrum and float textures by name (pbrt keeps the two apart).
     textures: BTreeMap<String, TextureDesc>,
+    float_textures: BTreeMap<String, TextureDesc>,
+    /// Materials made for shapes with `alpha`, by what they are (material and opacity).
+    masked: BTreeMap<String, String>,
     anonymous: usize,
     shapes: Vec<ShapeDesc>,
     labels: Vec<String>,
@@ -102,6 +106,8 @@ impl<'a> Translator<'a> {
             filter: None,
             materials: BTreeMap::new(),
             textures: BTreeMap::new(),
+            float_textures: BTreeMap::new(),
+            masked: BTreeMap::new(),
             anonymous: 0,
             shapes: Vec::new(),
             labels: Vec::new(),

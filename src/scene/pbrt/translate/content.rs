@@ -77,6 +77,16 @@ fn triples(d: &Directive, params: &[Param], name: &str) -> Result<Option<Vec<Tri
     Ok(Some(v.chunks(3).map(|c| Fixed([c[0], c[1], c[2]])).collect()))
 }
 
+/// The (u, v) map of a pbrt image: v flipped, since pbrt's image puts v = 0 at the bottom row
+/// and ours at the top.
+pub(super) fn flip_v() -> desc::UvTransformDesc {
+    desc::UvTransformDesc {
+        scale: None,
+        offset: None,
+        matrix: Some(Fixed([Fixed([1.0, 0.0, 0.0]), Fixed([0.0, -1.0, 1.0])])),
+    }
+}
+
 impl Translator<'_> {
     /// A colour parameter: `rgb`, `spectrum` (wavelength–value pairs), or a `texture` name
     /// (when `textures` allows); reflectances (`reflectance = true`) as Mitsuba converts them.
@@ -86,6 +96,19 @@ impl Translator<'_> {
         params: &[Param],
         name: &str,
         reflectance: bool,
+    ) -> Result<Option<Color>> {
+        self.colour_or_number(d, params, name, reflectance, false)
+    }
+
+    /// [`Translator::colour`], or with `float` a number parameter, whose `texture` names a
+    /// float texture: pbrt keeps float and spectrum textures apart, under names of their own.
+    fn colour_or_number(
+        &self,
+        d: &Directive,
+        params: &[Param],
+        name: &str,
+        reflectance: bool,
+        float: bool,
     ) -> Result<Option<Color>> {
         let Some(p) = find(params, name) else { return Ok(None) };
         match p.ty.as_str() {
@@ -111,10 +134,14 @@ impl Translator<'_> {
             }
             "texture" => {
                 let t = string_param(d, params, name)?.unwrap_or_default();
-                let tex = self
-                    .textures
+                let (textures, kind) = if float {
+                    (&self.float_textures, "float")
+                } else {
+                    (&self.textures, "spectrum")
+                };
+                let tex = textures
                     .get(&t)
-                    .ok_or_else(|| d.err(format!("parameter \"texture {name}\": no texture named {t:?}")))?;
+                    .ok_or_else(|| d.err(format!("parameter \"texture {name}\": no {kind} texture named {t:?}")))?;
                 Ok(Some(Color::Texture(Box::new(tex.clone()))))
             }
             other => Err(d.err(format!(
@@ -145,8 +172,13 @@ impl Translator<'_> {
 
     /// `Texture "name" "spectrum"|"float" "checkerboard"|"imagemap" …`.
     pub(super) fn texture(&mut self, d: &Directive) -> Result<()> {
-        let [Value::Str(name), Value::Str(_ty), Value::Str(class)] = &d.args[..] else {
+        let [Value::Str(name), Value::Str(ty), Value::Str(class)] = &d.args[..] else {
             return Err(d.err("expected a name, a type (spectrum, float) and a class"));
+        };
+        let float = match ty.as_str() {
+            "float" => true,
+            "spectrum" => false,
+            other => return Err(d.err(format!("texture type {other:?}: expected float or spectrum"))),
         };
         let scale = |key: &str| float_param(d, &d.params, key).map(|v| v.unwrap_or(1.0));
         let to_uv = desc::UvTransformDesc {
@@ -177,9 +209,14 @@ impl Translator<'_> {
                 // pbrt's checkerboard has tex1 where ⌊u⌋ + ⌊v⌋ is even, in cells of 1; ours
                 // has color0 where both fractional parts of u′, v′ lie on one side of ½, in
                 // cells of ½: halve the scale.
+                // Our number parameters read a checkerboard's colours swapped (Mitsuba's
+                // `eval_1`, src/texture.rs): a float one is kept swapped, so that it reads tex1
+                // where pbrt does.
+                let (tex1, tex2) = (rgb("tex1", 1.0)?, rgb("tex2", 0.0)?);
+                let (color0, color1) = if float { (tex2, tex1) } else { (tex1, tex2) };
                 TextureDesc::Checkerboard(desc::CheckerboardDesc {
-                    color0: Some(rgb("tex1", 1.0)?),
-                    color1: Some(rgb("tex2", 0.0)?),
+                    color0: Some(color0),
+                    color1: Some(color1),
                     to_uv: Some(desc::UvTransformDesc {
                         scale: to_uv.scale.map(|s| Fixed(s.0.map(|x| 0.5 * x))),
                         offset: to_uv.offset.map(|o| Fixed(o.0.map(|x| 0.5 * x))),
@@ -245,7 +282,7 @@ impl Translator<'_> {
                     Some(_) => return Err(d.err("scale: a texture is not read here; give a float")),
                 };
                 // tex times s: a named texture's values scaled, or a uniform one.
-                match self.colour(d, &d.params, "tex", true)? {
+                match self.colour_or_number(d, &d.params, "tex", true, float)? {
                     Some(Color::Texture(t)) => match *t {
                         TextureDesc::Checkerboard(mut c) => {
                             for colour in [&mut c.color0, &mut c.color1] {
@@ -280,7 +317,11 @@ impl Translator<'_> {
                 return Err(d.err(format!("unsupported texture {other:?} (checkerboard, imagemap, scale)")));
             }
         };
-        self.textures.insert(name.clone(), t);
+        if float {
+            self.float_textures.insert(name.clone(), t);
+        } else {
+            self.textures.insert(name.clone(), t);
+        }
         Ok(())
     }
 
@@ -293,7 +334,9 @@ impl Translator<'_> {
         let emission = self.state.area_light.clone();
         let transform = Some(self.ctm_desc());
         let ro = self.state.reverse_orientation;
-        let params = &d.params;
+        let material = self.alpha_masked(d, material, emission.is_some())?;
+        let without_alpha: Vec<Param> = d.params.iter().filter(|p| p.name != "alpha").cloned().collect();
+        let params = &without_alpha[..];
         let shape = match kind.as_str() {
             "trianglemesh" => {
                 check_known(d, params, &["P", "indices", "N", "uv"])?;
@@ -435,6 +478,56 @@ impl Translator<'_> {
         self.shapes.push(shape);
         self.labels.push(label);
         Ok(())
+    }
+
+    /// A shape's material with pbrt-v4's `alpha` (`float alpha` below 1 or `texture alpha`):
+    /// our mask around the material, which tests α at every ray that meets the shape with a
+    /// hash of the ray, as pbrt-v4's `GeometricPrimitive` does (user guide, "Opacity masks");
+    /// the material itself where the shape is opaque. A float texture's value is its picture's
+    /// luminance here, pbrt's first channel — the same for the grey pictures alpha maps are.
+    /// An area light with α is refused: our masks do not apply to emitters.
+    fn alpha_masked(&mut self, d: &Directive, material: String, emits: bool) -> Result<String> {
+        let Some(p) = find(&d.params, "alpha") else {
+            return Ok(material);
+        };
+        let opacity = match p.ty.as_str() {
+            "float" => match float_param(d, &d.params, "alpha")? {
+                Some(a) if a >= 1.0 => return Ok(material),
+                Some(a) if a >= 0.0 => desc::ScalarDesc::Value(a),
+                a => return Err(d.err(format!("parameter alpha: expected a number in [0, 1], got {a:?}"))),
+            },
+            "texture" => {
+                let Some(Color::Texture(tex)) = self.colour_or_number(d, &d.params, "alpha", false, true)? else {
+                    unreachable!("a texture parameter names a texture")
+                };
+                desc::ScalarDesc::Texture(tex)
+            }
+            other => return Err(d.err(format!("parameter \"{other} alpha\": expected float or texture"))),
+        };
+        if emits {
+            return Err(
+                d.err("an area light with alpha is not read (a masked emitter would emit only where rays stop)")
+            );
+        }
+        let bsdf = self
+            .materials
+            .get(&material)
+            .cloned()
+            .expect("the current material is defined");
+        // One masked material per distinct (material, α), whatever names they had.
+        let key = format!("{bsdf:?} {opacity:?}");
+        if let Some(name) = self.masked.get(&key) {
+            return Ok(name.clone());
+        }
+        self.anonymous += 1;
+        let name = format!("{material}-alpha-{}", self.anonymous);
+        let mask = MaterialDesc::Mask(desc::Mask {
+            opacity: Some(opacity),
+            bsdf: Box::new(bsdf),
+        });
+        self.materials.insert(name.clone(), mask);
+        self.masked.insert(key, name.clone());
+        Ok(name)
     }
 
     /// pbrt's `loopsubdiv`: the control mesh refined `levels` times (default 3) and moved to

@@ -2,12 +2,47 @@
 //! `thindielectric`, `mix`, `coateddiffuse` and `coatedconductor` (the mappings are in
 //! docs/user-guide.md, "pbrt-v4 scenes").
 
-use super::content::{bool_param, check_known, find, float_param, numbers};
+use super::content::{bool_param, check_known, find, flip_v, float_param, numbers, string_param};
 use super::*;
 
 impl Translator<'_> {
-    /// One material of pbrt-v4 as ours (module doc for the mappings).
+    /// One material of pbrt-v4 as ours, with its `normalmap` if it has one.
+    ///
+    /// pbrt-v4's normal map (`NormalMap` in its materials.h): an image read linearly, filtered
+    /// bilinearly with repeat at (u, 1 − v), whose colour c is the normal 2c − 1 in the frame
+    /// of the shading ∂p/∂u and normal — our `normal_map` around the material, its picture read
+    /// `raw` with the v flip every pbrt image takes here. pbrt-v4 reads no normal map on `mix`
+    /// and `interface`: one there is ignored with a warning, as pbrt ignores it.
     pub(super) fn material(&mut self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
+        let normal_map = string_param(d, params, "normalmap")?.filter(|f| !f.is_empty());
+        let rest: Vec<Param> = params.iter().filter(|p| p.name != "normalmap").cloned().collect();
+        let model = self.material_model(d, kind, &rest)?;
+        let Some(file) = normal_map else {
+            return Ok(model);
+        };
+        if matches!(kind, "mix" | "interface") {
+            self.warn(
+                d,
+                &format!("normalmap on a {kind} material is ignored, as pbrt-v4 ignores it"),
+            );
+            return Ok(model);
+        }
+        let normals = TextureDesc::Bitmap(desc::BitmapDesc {
+            file: self.dir.join(&file).display().to_string(),
+            filter: None,
+            wrap: None,
+            raw: Some(true),
+            scale: None,
+            to_uv: Some(flip_v()),
+        });
+        Ok(MaterialDesc::NormalMap(desc::NormalMap {
+            normals: Color::Texture(Box::new(normals)),
+            bsdf: Box::new(model),
+        }))
+    }
+
+    /// One material model of pbrt-v4 as ours (module doc for the mappings).
+    fn material_model(&mut self, d: &Directive, kind: &str, params: &[Param]) -> Result<MaterialDesc> {
         Ok(match kind {
             // A medium boundary that does not scatter: our `null`.
             "interface" => {
