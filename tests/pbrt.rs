@@ -943,8 +943,16 @@ fn normal_maps_and_alpha_mean_what_pbrt_says() {
         AttributeEnd\n\
         Shape \"trianglemesh\" \"point3 P\" [-2 0 -1  0 0 -1  0 2 -1  -2 2 -1] \"integer indices\" [0 1 2 0 2 3]\n\
             \"point2 uv\" [0 0  1 0  1 1  0 1] \"texture alpha\" \"checks\"\n\
-        Shape \"trianglemesh\" \"point3 P\" [2 0 -2  3 0 -2  3 1 -2] \"float alpha\" 1\n";
+        Shape \"trianglemesh\" \"point3 P\" [2 0 -2  3 0 -2  3 1 -2] \"float alpha\" 1\n\
+        AttributeBegin\n\
+          AreaLightSource \"diffuse\" \"rgb L\" [50 50 50]\n\
+          Shape \"sphere\" \"float radius\" 0.4 \"float alpha\" 0\n\
+          Shape \"trianglemesh\" \"point3 P\" [-1 0.1 0  1 0.1 0  0 0.1 1] \"float alpha\" 0\n\
+        AttributeEnd\n";
     let scene = load(dir.path(), "mapped.pbrt", pbrt).unwrap();
+    // Shapes of α 0 are nothing in pbrt-v4 (no hit, no emission, even as area lights): the
+    // sphere at the origin and the triangle over the floor are left out.
+    assert!(scene.lights.is_empty(), "no area light: {}", scene.lights.len());
     let channel = |x: i64, y: i64, c: usize| {
         let (w, h) = (3i64, 2i64);
         f32::from(texels[y.rem_euclid(h) as usize][x.rem_euclid(w) as usize][c]) / 255.0
@@ -1016,7 +1024,7 @@ fn normal_maps_and_alpha_mean_what_pbrt_says() {
     // share the red material in two masks.
     let masks = scene.materials.iter().filter(|m| m.opacity.is_some()).count();
     assert_eq!(masks, 2);
-    // An area light with α, and α outside [0, 1], are refused naming the line.
+    // An area light with 0 < α < 1, and α outside [0, 1], are refused naming the line.
     for (shape, expect) in [
         (
             "AreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\nShape \"sphere\" \"float alpha\" 0.5",

@@ -334,7 +334,14 @@ impl Translator<'_> {
         let emission = self.state.area_light.clone();
         let transform = Some(self.ctm_desc());
         let ro = self.state.reverse_orientation;
-        let material = self.alpha_masked(d, material, emission.is_some())?;
+        let Some(material) = self.alpha_masked(d, material, emission.is_some())? else {
+            self.warn(
+                d,
+                "alpha 0: pbrt-v4 neither shows this shape nor lets it emit (its area light masks all \
+                 emission too), so it is left out",
+            );
+            return Ok(());
+        };
         let without_alpha: Vec<Param> = d.params.iter().filter(|p| p.name != "alpha").cloned().collect();
         let params = &without_alpha[..];
         let shape = match kind.as_str() {
@@ -485,15 +492,19 @@ impl Translator<'_> {
     /// hash of the ray, as pbrt-v4's `GeometricPrimitive` does (user guide, "Opacity masks");
     /// the material itself where the shape is opaque. A float texture's value is its picture's
     /// luminance here, pbrt's first channel — the same for the grey pictures alpha maps are.
-    /// An area light with α is refused: our masks do not apply to emitters.
-    fn alpha_masked(&mut self, d: &Directive, material: String, emits: bool) -> Result<String> {
+    /// `None` for a constant α of 0, a shape that is nothing in pbrt-v4: rays pass it, and its
+    /// area light, masked by the same α (`DiffuseAreaLight::AlphaMasked`), emits nothing. An
+    /// area light with any other α is refused: pbrt masks its emission point by point with a
+    /// hash of the point, and our masks do not apply to emitters.
+    fn alpha_masked(&mut self, d: &Directive, material: String, emits: bool) -> Result<Option<String>> {
         let Some(p) = find(&d.params, "alpha") else {
-            return Ok(material);
+            return Ok(Some(material));
         };
         let opacity = match p.ty.as_str() {
             "float" => match float_param(d, &d.params, "alpha")? {
-                Some(a) if a >= 1.0 => return Ok(material),
-                Some(a) if a >= 0.0 => desc::ScalarDesc::Value(a),
+                Some(a) if a >= 1.0 => return Ok(Some(material)),
+                Some(a) if a == 0.0 => return Ok(None),
+                Some(a) if a > 0.0 => desc::ScalarDesc::Value(a),
                 a => return Err(d.err(format!("parameter alpha: expected a number in [0, 1], got {a:?}"))),
             },
             "texture" => {
@@ -517,7 +528,7 @@ impl Translator<'_> {
         // One masked material per distinct (material, α), whatever names they had.
         let key = format!("{bsdf:?} {opacity:?}");
         if let Some(name) = self.masked.get(&key) {
-            return Ok(name.clone());
+            return Ok(Some(name.clone()));
         }
         self.anonymous += 1;
         let name = format!("{material}-alpha-{}", self.anonymous);
@@ -527,7 +538,7 @@ impl Translator<'_> {
         });
         self.materials.insert(name.clone(), mask);
         self.masked.insert(key, name.clone());
-        Ok(name)
+        Ok(Some(name))
     }
 
     /// pbrt's `loopsubdiv`: the control mesh refined `levels` times (default 3) and moved to
