@@ -503,7 +503,7 @@ impl Translator<'_> {
         let opacity = match p.ty.as_str() {
             "float" => match float_param(d, &d.params, "alpha")? {
                 Some(a) if a >= 1.0 => return Ok(Some(material)),
-                Some(a) if a == 0.0 => return Ok(None),
+                Some(0.0) => return Ok(None),
                 Some(a) if a > 0.0 => desc::ScalarDesc::Value(a),
                 a => return Err(d.err(format!("parameter alpha: expected a number in [0, 1], got {a:?}"))),
             },
