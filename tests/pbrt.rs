@@ -1044,3 +1044,83 @@ fn normal_maps_and_alpha_mean_what_pbrt_says() {
         assert_refused(&err, expect);
     }
 }
+
+/// pbrt-v4's film bounds: `cropwindow` [x0 x1 y0 y1] (fractions, each pair ordered and
+/// clamped) covers pixels ⌈res · min⌉ … ⌈res · max⌉ and wins over `pixelbounds` (pixels,
+/// clipped to the film); the field of view stays the whole film's. A `constant` texture is
+/// its value everywhere: the floor renders as with the plain colour.
+#[test]
+fn crop_windows_and_constant_textures_mean_what_pbrt_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |film: &str, floor: &str| {
+        let text = lit_floor(&format!(
+            "LightSource \"point\" \"rgb I\" [3 3 3] \"point3 from\" [0 2 0]\n{floor}\n\
+             Shape \"trianglemesh\" \"point3 P\" [-3 0.01 -3  3 0.01 -3  3 0.01 3  -3 0.01 3] \"integer indices\" [0 2 1 0 3 2]"
+        ))
+        .replace(
+            "\"integer xresolution\" 12 \"integer yresolution\" 9",
+            &format!("\"integer xresolution\" 64 \"integer yresolution\" 48 {film}"),
+        );
+        load(dir.path(), "crop.pbrt", &text)
+    };
+    let plain = "Material \"diffuse\" \"rgb reflectance\" [0.2 0.4 0.6]";
+    let full = scene("", plain).unwrap();
+    for (film, offset, size) in [
+        ("\"float cropwindow\" [0.5 0.2 0.1 0.6]", (13, 5), (19, 24)),
+        ("\"integer pixelbounds\" [10 30 4 60]", (10, 4), (20, 44)),
+        (
+            "\"integer pixelbounds\" [0 8 0 8] \"float cropwindow\" [-0.5 0.25 0.5 1.5]",
+            (0, 24),
+            (16, 24),
+        ),
+    ] {
+        let crop = scene(film, plain).unwrap();
+        assert_eq!((crop.camera.width, crop.camera.height), size, "{film}");
+        assert_eq!(
+            (crop.camera.film, crop.camera.crop_offset),
+            ((64, 48), offset),
+            "{film}"
+        );
+        let within = Vec2::new(3.5, 2.5);
+        let (a, b) = (
+            full.camera
+                .generate_ray(within + Vec2::new(offset.0 as f32, offset.1 as f32)),
+            crop.camera.generate_ray(within),
+        );
+        assert!((a.d - b.d).length() < 1e-6, "{film}: {} vs {}", a.d, b.d);
+    }
+    for bad in [
+        "\"float cropwindow\" [0.5 0.5 0 1]",
+        "\"float cropwindow\" [0 1 0]",
+        "\"integer pixelbounds\" [70 80 0 10]",
+    ] {
+        let err = scene(bad, plain).err().expect("refused").to_string();
+        assert_refused(&err, &["line 3", "Film"]);
+    }
+    // A constant texture (spectrum and float) is its value at every point.
+    let constant = "Texture \"c\" \"spectrum\" \"constant\" \"rgb value\" [0.2 0.4 0.6]\n\
+                    Material \"diffuse\" \"texture reflectance\" \"c\"";
+    let (a, b) = (scene("", plain).unwrap(), scene("", constant).unwrap());
+    let (ia, ib) = (
+        agreement::render_image(&a, "path", "max_depth = 1", 2, 3),
+        agreement::render_image(&b, "path", "max_depth = 1", 2, 3),
+    );
+    for (p, q) in ia.pixels.iter().zip(&ib.pixels) {
+        assert!(
+            (*p - *q).abs().max_element() <= 1e-6 * p.max_element().max(1.0),
+            "{p} vs {q}"
+        );
+    }
+    let sheet = lit_floor(
+        "LightSource \"point\" \"rgb I\" [3 3 3] \"point3 from\" [0 2 0]\n\
+         Texture \"a\" \"float\" \"constant\" \"float value\" 0.25\n\
+         Shape \"trianglemesh\" \"point3 P\" [-1 0 -1  1 0 -1  1 1 -1] \"texture alpha\" \"a\"",
+    );
+    let masked = load(dir.path(), "sheet.pbrt", &sheet).unwrap();
+    let opacities: Vec<f32> = masked
+        .materials
+        .iter()
+        .filter_map(|m| m.opacity.as_ref().map(|_| m.opacity_at(|| Vec2::new(0.3, 0.7))))
+        .collect();
+    assert_eq!(opacities, [0.25]);
+}

@@ -17,14 +17,14 @@
 //! - `Camera` `perspective` (`fov` on the shorter image axis, `lensradius`, `focaldistance`)
 //!   and `orthographic`; pbrt's camera space is left-handed (x = up × view goes to the right of
 //!   the image), so the image is ours mirrored ([`crate::camera::Camera::mirrored`]).
-//! - `Film` `rgb` (`xresolution`, `yresolution`; `filename` ignored); `PixelFilter` `box`
+//! - `Film` `rgb` (`xresolution`, `yresolution`, `cropwindow`, `pixelbounds`; `filename` ignored); `PixelFilter` `box`
 //!   (radius ½) and `gaussian` (approximated by Mitsuba's, warned); `Sampler`, `Integrator`,
 //!   `Accelerator`, `ColorSpace "srgb"`, `Option` ignored with a warning where they would
 //!   change nothing we render.
 //! - `Material`, `MakeNamedMaterial`, `NamedMaterial`: `diffuse`, `conductor`, `dielectric`,
 //!   `thindielectric`, `diffusetransmission`, `mix`, `coateddiffuse`, `coatedconductor`,
 //!   `interface` ([`translate`] says how each maps); a material's `normalmap`.
-//! - `Texture` `float`/`spectrum` `checkerboard` (2D), `imagemap` and `scale`.
+//! - `Texture` `float`/`spectrum` `checkerboard` (2D), `constant`, `imagemap` and `scale`.
 //! - `Shape` `trianglemesh`, `bilinearmesh` (flat patches), `loopsubdiv` ([`loop_subdiv`]),
 //!   `plymesh`, `sphere`, `disk`, `cylinder` (whole ones); `ObjectBegin`/`ObjectInstance`
 //!   (flattened); a shape's `alpha` (float or float texture: our mask).

@@ -59,6 +59,8 @@ pub struct Translator<'a> {
     camera: Option<desc::CameraDesc>,
     camera_at: String,
     resolution: [u32; 2],
+    /// The film's pixel bounds (`cropwindow`, `pixelbounds`), if not the whole film.
+    crop: Option<desc::CropDesc>,
     filter: Option<desc::FilterDesc>,
     materials: BTreeMap<String, MaterialDesc>,
     /// Spectrum and float textures by name (pbrt keeps the two apart).
@@ -103,6 +105,7 @@ impl<'a> Translator<'a> {
             camera: None,
             camera_at: String::new(),
             resolution: [1280, 720],
+            crop: None,
             filter: None,
             materials: BTreeMap::new(),
             textures: BTreeMap::new(),
@@ -412,7 +415,11 @@ impl<'a> Translator<'a> {
             [Value::Str(s)] if s == "rgb" => {}
             _ => return Err(d.err("expected the \"rgb\" film")),
         }
-        check_known(d, &d.params, &["xresolution", "yresolution", "filename"])?;
+        check_known(
+            d,
+            &d.params,
+            &["xresolution", "yresolution", "filename", "cropwindow", "pixelbounds"],
+        )?;
         for (i, key) in ["xresolution", "yresolution"].into_iter().enumerate() {
             if let Some(v) = float_param(d, &d.params, key)? {
                 if !((1.0..=16384.0).contains(&v) && v.fract() == 0.0) {
@@ -421,7 +428,48 @@ impl<'a> Translator<'a> {
                 self.resolution[i] = v as u32;
             }
         }
+        self.crop = self.film_crop(d)?;
         Ok(())
+    }
+
+    /// pbrt-v4's pixel bounds (`FilmBaseParameters`): `pixelbounds` [x0 x1 y0 y1] in pixels,
+    /// clipped to the film, or — winning over it, as in pbrt — `cropwindow` [x0 x1 y0 y1] as
+    /// fractions of the film (each pair ordered and clamped to [0, 1]), whose bounds are
+    /// ⌈res · min⌉ … ⌈res · max⌉; pixel rows count from the top, as ours. `None` for the whole
+    /// film.
+    fn film_crop(&self, d: &Directive) -> Result<Option<desc::CropDesc>> {
+        let [w, h] = self.resolution.map(f64::from);
+        let values = |key: &str| -> Result<Option<Vec<f64>>> {
+            match content::find(&d.params, key) {
+                None => Ok(None),
+                Some(p) => match content::numbers(d, p)? {
+                    v if v.len() == 4 && v.iter().all(|x| x.is_finite()) => Ok(Some(v)),
+                    _ => Err(d.err(format!("{key}: expected 4 numbers [x0 x1 y0 y1]"))),
+                },
+            }
+        };
+        let bounds = if let Some(c) = values("cropwindow")? {
+            let frac = |a: f64, b: f64| (a.min(b).clamp(0.0, 1.0), a.max(b).clamp(0.0, 1.0));
+            let ((x0, x1), (y0, y1)) = (frac(c[0], c[1]), frac(c[2], c[3]));
+            [(w * x0).ceil(), (w * x1).ceil(), (h * y0).ceil(), (h * y1).ceil()]
+        } else if let Some(b) = values("pixelbounds")? {
+            [b[0].max(0.0), b[1].min(w), b[2].max(0.0), b[3].min(h)]
+        } else {
+            return Ok(None);
+        };
+        let [x0, x1, y0, y1] = bounds;
+        if x1 <= x0 || y1 <= y0 {
+            return Err(d.err(format!(
+                "the crop window covers no pixel of the {w} × {h} film (pixels x {x0}..{x1}, y {y0}..{y1})"
+            )));
+        }
+        if [x0, x1, y0, y1] == [0.0, w, 0.0, h] {
+            return Ok(None);
+        }
+        Ok(Some(desc::CropDesc {
+            offset: Some(Fixed([x0 as u32, y0 as u32])),
+            size: Fixed([(x1 - x0) as u32, (y1 - y0) as u32]),
+        }))
     }
 
     fn pixel_filter(&mut self, d: &Directive) -> Result<()> {
@@ -466,6 +514,7 @@ impl<'a> Translator<'a> {
             o.height = 2.0 * (h as f64 / w as f64).max(1.0);
         }
         camera.resolution = Fixed([w, h]);
+        camera.crop = self.crop;
         camera.filter = Some(self.filter.take().unwrap_or_else(|| {
             self.warnings.push(format!(
                 "{}: pbrt's default Gaussian filter rendered as Mitsuba's (σ ½ to radius 2)",

@@ -274,6 +274,20 @@ impl Translator<'_> {
                     }),
                 })
             }
+            "constant" => {
+                check_known(d, &d.params, &["value"])?;
+                // One value everywhere: a checkerboard of two equal colours.
+                let v = match self.colour_or_number(d, &d.params, "value", true, float)? {
+                    None => Fixed([1.0; 3]),
+                    Some(Color::Rgb(c)) => c,
+                    Some(Color::Texture(_)) => return Err(d.err("value: expected a number or a colour")),
+                };
+                TextureDesc::Checkerboard(desc::CheckerboardDesc {
+                    color0: Some(v),
+                    color1: Some(v),
+                    to_uv: None,
+                })
+            }
             "scale" => {
                 check_known(d, &d.params, &["tex", "scale"])?;
                 let s = match find(&d.params, "scale") {
@@ -314,7 +328,9 @@ impl Translator<'_> {
                 }
             }
             other => {
-                return Err(d.err(format!("unsupported texture {other:?} (checkerboard, imagemap, scale)")));
+                return Err(d.err(format!(
+                    "unsupported texture {other:?} (checkerboard, constant, imagemap, scale)"
+                )));
             }
         };
         if float {
