@@ -570,6 +570,7 @@ impl<'a> Translator<'a> {
 
 mod content;
 mod materials;
+mod textures;
 
 use content::{bool_param, check_known, column_major, float_param, string_param};
 

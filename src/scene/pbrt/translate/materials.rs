@@ -2,7 +2,8 @@
 //! `thindielectric`, `mix`, `coateddiffuse` and `coatedconductor` (the mappings are in
 //! docs/user-guide.md, "pbrt-v4 scenes").
 
-use super::content::{bool_param, check_known, find, flip_v, float_param, numbers, string_param};
+use super::content::{bool_param, check_known, find, float_param, numbers, string_param};
+use super::textures::flip_v;
 use super::*;
 
 impl Translator<'_> {
