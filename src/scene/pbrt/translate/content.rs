@@ -95,8 +95,10 @@ impl Translator<'_> {
             );
             return Ok(());
         };
-        let without_alpha: Vec<Param> = d.params.iter().filter(|p| p.name != "alpha").cloned().collect();
-        let params = &without_alpha[..];
+        // `alpha`, read above, is a parameter of every shape.
+        let params = &d.params;
+        let check_known =
+            |d: &Directive, params: &[Param], known: &[&str]| check_known(d, params, &[known, &["alpha"]].concat());
         let shape = match kind.as_str() {
             "trianglemesh" => {
                 check_known(d, params, &["P", "indices", "N", "uv"])?;

@@ -3,7 +3,7 @@
 //! docs/user-guide.md, "pbrt-v4 scenes").
 
 use super::content::{bool_param, check_known, find, float_param, numbers, string_param};
-use super::textures::flip_v;
+use super::textures::image_uv;
 use super::*;
 
 impl Translator<'_> {
@@ -34,7 +34,7 @@ impl Translator<'_> {
             wrap: None,
             raw: Some(true),
             scale: None,
-            to_uv: Some(flip_v()),
+            to_uv: Some(image_uv([1.0, 1.0], [0.0, 0.0])),
         });
         Ok(MaterialDesc::NormalMap(desc::NormalMap {
             normals: Color::Texture(Box::new(normals)),

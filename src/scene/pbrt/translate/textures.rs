@@ -4,13 +4,14 @@
 use super::content::{check_known, find, float_param, numbers, string_param};
 use super::*;
 
-/// The (u, v) map of a pbrt image: v flipped, since pbrt's image puts v = 0 at the bottom row
+/// The (u, v) map of a pbrt image texture with pbrt's `uscale`, `vscale`, `udelta`, `vdelta`:
+/// (s_u u + d_u, s_v v + d_v), then v flipped, since pbrt's image puts v = 0 at the bottom row
 /// and ours at the top.
-pub(super) fn flip_v() -> desc::UvTransformDesc {
+pub(super) fn image_uv([su, sv]: [f64; 2], [du, dv]: [f64; 2]) -> desc::UvTransformDesc {
     desc::UvTransformDesc {
         scale: None,
         offset: None,
-        matrix: Some(Fixed([Fixed([1.0, 0.0, 0.0]), Fixed([0.0, -1.0, 1.0])])),
+        matrix: Some(Fixed([Fixed([su, 0.0, du]), Fixed([0.0, -sv, 1.0 - dv])])),
     }
 }
 
@@ -176,29 +177,19 @@ impl Translator<'_> {
                     Some("point") => Some("nearest".to_string()),
                     Some(x) => return Err(d.err(format!("filter {x:?}: expected bilinear or point"))),
                 };
-                // pbrt's image (u, v) puts v = 0 at the bottom row; ours at the top: flip v.
                 TextureDesc::Bitmap(desc::BitmapDesc {
                     file: self.dir.join(&file).display().to_string(),
                     filter,
                     wrap,
                     raw,
                     scale: float_param(d, &d.params, "scale")?,
-                    to_uv: Some(desc::UvTransformDesc {
-                        scale: None,
-                        offset: None,
-                        matrix: Some(Fixed([
-                            Fixed([
-                                scale("uscale")?,
-                                0.0,
-                                float_param(d, &d.params, "udelta")?.unwrap_or(0.0),
-                            ]),
-                            Fixed([
-                                0.0,
-                                -scale("vscale")?,
-                                1.0 - float_param(d, &d.params, "vdelta")?.unwrap_or(0.0),
-                            ]),
-                        ])),
-                    }),
+                    to_uv: Some(image_uv(
+                        [scale("uscale")?, scale("vscale")?],
+                        [
+                            float_param(d, &d.params, "udelta")?.unwrap_or(0.0),
+                            float_param(d, &d.params, "vdelta")?.unwrap_or(0.0),
+                        ],
+                    )),
                 })
             }
             "constant" => {
