@@ -29,6 +29,9 @@
 //!   `roughplastic`.
 //! - [`Pplastic`]: Mitsuba 3's `pplastic` unpolarised — rough specular reflection plus a diffuse
 //!   lobe attenuated by two refractions [Baek et al. 2018].
+//! - [`Principled`] and [`PrincipledThin`]: Disney's principled model and its thin-sheet
+//!   variant as Mitsuba 3 defines them (`principled`, `principledthin`); the first has an inside
+//!   and an outside (transmission), the second is symmetric between its sides.
 //! - [`Blend`]: (1 − w) f₀ + w f₁ of two models, Mitsuba 3's `blendbsdf`.
 //! - [`NormalMapped`]: any model under a normal map, as Mitsuba 3.9's `normalmap` (the
 //!   normal the eye sees, the light direction's shadowing, a sampling mixture of two frames).
@@ -60,6 +63,8 @@ mod normal_mapped;
 mod phong;
 mod plastic;
 mod pplastic;
+mod principled;
+mod principled_thin;
 pub(crate) mod rough_dielectric;
 mod rough_plastic;
 mod thin_dielectric;
@@ -71,6 +76,8 @@ mod coated_tests;
 mod microfacet_tests;
 #[cfg(test)]
 mod normal_mapped_tests;
+#[cfg(test)]
+mod principled_tests;
 #[cfg(test)]
 mod tests;
 
@@ -86,6 +93,8 @@ pub use normal_mapped::{NormalMapped, OWN_FRAME_SHARE};
 pub use phong::Phong;
 pub use plastic::{Plastic, fresnel_diffuse_reflectance};
 pub use pplastic::Pplastic;
+pub use principled::{Principled, PrincipledParam};
+pub use principled_thin::PrincipledThin;
 pub use rough_dielectric::{Lobes, RoughDielectric};
 pub use rough_plastic::RoughPlastic;
 pub use thin_dielectric::ThinDielectric;
@@ -163,6 +172,10 @@ pub enum Bsdf {
     Coated(Box<Coated>),
     /// A model under a normal map, as Mitsuba 3's `normalmap` ([`NormalMapped`]).
     NormalMapped(Box<NormalMapped>),
+    /// Disney's principled model, Mitsuba 3's `principled` ([`Principled`]).
+    Principled(Principled),
+    /// Disney's thin-sheet principled model, Mitsuba 3's `principledthin` ([`PrincipledThin`]).
+    PrincipledThin(PrincipledThin),
 }
 
 /// A colour parameter that a texture can drive ([`crate::scene::Material::textures`]).
@@ -185,16 +198,21 @@ pub enum ColorParam {
     AlphaV,
     /// A normal map's colour c, the normal 2c − 1 ([`NormalMapped`]; raw, never sRGB-decoded).
     NormalMap,
+    /// A parameter of the principled models (their base colour, or one of their numbers).
+    Principled(PrincipledParam),
 }
 
 impl ColorParam {
     /// Whether the parameter is a number (read by `Texture::eval_number`, set from any channel
     /// of the value passed to [`Bsdf::set_color`]) rather than a colour.
     pub fn is_number(self) -> bool {
-        matches!(
-            self,
-            ColorParam::Weight | ColorParam::Alpha | ColorParam::AlphaU | ColorParam::AlphaV
-        )
+        match self {
+            ColorParam::Principled(p) => p != PrincipledParam::BaseColor,
+            p => matches!(
+                p,
+                ColorParam::Weight | ColorParam::Alpha | ColorParam::AlphaU | ColorParam::AlphaV
+            ),
+        }
     }
 }
 
@@ -276,6 +294,8 @@ impl Bsdf {
             Bsdf::NormalMapped(b) => b.eval(wo, wi, mode),
             Bsdf::Blend(b) => b.eval(wo, wi, mode),
             Bsdf::Coated(b) => b.eval(wo, wi, mode),
+            Bsdf::Principled(b) => b.eval(wo, wi, mode),
+            Bsdf::PrincipledThin(b) => b.eval(wo, wi),
         }
     }
 
@@ -298,6 +318,8 @@ impl Bsdf {
             Bsdf::NormalMapped(b) => b.pdf(wo, wi),
             Bsdf::Blend(b) => b.pdf(wo, wi),
             Bsdf::Coated(b) => b.pdf(wo, wi),
+            Bsdf::Principled(b) => b.pdf(wo, wi),
+            Bsdf::PrincipledThin(b) => b.pdf(wo, wi),
         }
     }
 
@@ -323,6 +345,8 @@ impl Bsdf {
             Bsdf::NormalMapped(b) => b.sample(wo, u, u_lobe, mode),
             Bsdf::Blend(b) => b.sample(wo, u, u_lobe, mode),
             Bsdf::Coated(b) => b.sample(wo, u, u_lobe, mode),
+            Bsdf::Principled(b) => b.sample(wo, u, u_lobe, mode),
+            Bsdf::PrincipledThin(b) => b.sample(wo, u, u_lobe),
         }
     }
 
@@ -375,6 +399,8 @@ impl Bsdf {
             (Bsdf::NormalMapped(b), _) => return b.nested.set_color(param, c),
             // The base's colour (pbrt's `reflectance` of a coated diffuse, a conductor's tint).
             (Bsdf::Coated(b), Reflectance | SpecularReflectance) => return b.base.set_color(param, c),
+            (Bsdf::Principled(b), Principled(p)) => return b.set(p, c),
+            (Bsdf::PrincipledThin(b), Principled(p)) => return b.set(p, c),
             (Bsdf::Blend(b), Weight) => {
                 b.weight = c.x.clamp(0.0, 1.0);
                 return true;
@@ -425,6 +451,9 @@ impl Bsdf {
                 _ => SurfaceKind::Specular,
             },
             Bsdf::Lambertian(_) | Bsdf::DiffuseTransmission(_) => SurfaceKind::Diffuse,
+            Bsdf::Principled(b) if b.has_diffuse() => SurfaceKind::Diffuse,
+            Bsdf::PrincipledThin(b) if b.has_diffuse() => SurfaceKind::Diffuse,
+            Bsdf::Principled(_) | Bsdf::PrincipledThin(_) => SurfaceKind::Glossy,
             Bsdf::Mirror(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Conductor(_) => {
                 SurfaceKind::Specular
             }
@@ -446,6 +475,8 @@ impl Bsdf {
             Bsdf::OneSided(b) => return b.is_transmissive(),
             Bsdf::NormalMapped(b) => return b.nested.is_transmissive(),
             Bsdf::Blend(b) => return b.bsdfs.iter().any(Bsdf::is_transmissive),
+            Bsdf::Principled(b) => return b.spec_trans > 0.0 && b.metallic < 1.0,
+            Bsdf::PrincipledThin(b) => return b.spec_trans > 0.0 || b.diff_trans > 0.0,
             _ => {}
         }
         matches!(
@@ -468,6 +499,8 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             Bsdf::Pplastic(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             Bsdf::RoughDielectric(b) => b.distribution.alpha_u != b.distribution.alpha_v,
+            Bsdf::Principled(b) => b.anisotropic != 0.0,
+            Bsdf::PrincipledThin(b) => b.anisotropic != 0.0,
             _ => false,
         }
     }
@@ -541,6 +574,8 @@ impl Bsdf {
             // F + (1 − F) ρ_inside ≤ 1: the coating's Fresnel reflection alone reaches 1 at
             // grazing angles.
             Bsdf::Coated(_) => Vec3::ONE,
+            Bsdf::Principled(b) => b.albedo(),
+            Bsdf::PrincipledThin(b) => b.albedo(),
         }
     }
 
@@ -677,6 +712,48 @@ impl Bsdf {
                 b.bsdfs[1].validate()
             }
             Bsdf::Coated(b) => b.validate(),
+            Bsdf::Principled(b) => {
+                unit("base_color", b.base_color)?;
+                for (name, x) in [
+                    ("roughness", b.roughness),
+                    ("anisotropic", b.anisotropic),
+                    ("metallic", b.metallic),
+                    ("spec_trans", b.spec_trans),
+                    ("spec_tint", b.spec_tint),
+                    ("sheen", b.sheen),
+                    ("sheen_tint", b.sheen_tint),
+                    ("flatness", b.flatness),
+                    ("clearcoat", b.clearcoat),
+                    ("clearcoat_gloss", b.clearcoat_gloss),
+                ] {
+                    unit(name, Vec3::splat(x))?;
+                }
+                positive("eta", b.eta)?;
+                sampling_rates(&b.rates)?;
+                if b.two_sided && b.spec_trans > 0.0 {
+                    return Err(Error::new(
+                        "a two-sided principled material cannot transmit (spec_trans must be 0)",
+                    ));
+                }
+                Ok(())
+            }
+            Bsdf::PrincipledThin(b) => {
+                unit("base_color", b.base_color)?;
+                for (name, x) in [
+                    ("roughness", b.roughness),
+                    ("anisotropic", b.anisotropic),
+                    ("spec_trans", b.spec_trans),
+                    ("spec_tint", b.spec_tint),
+                    ("sheen", b.sheen),
+                    ("sheen_tint", b.sheen_tint),
+                    ("flatness", b.flatness),
+                    ("diff_trans / 2", 0.5 * b.diff_trans),
+                ] {
+                    unit(name, Vec3::splat(x))?;
+                }
+                positive("eta", b.eta)?;
+                sampling_rates(&b.rates)
+            }
         }
     }
 
@@ -692,6 +769,17 @@ impl Bsdf {
             Bsdf::Coated(b) => !b.is_mirror(),
             _ => false,
         }
+    }
+}
+
+/// Sampling rates: finite, non-negative, some positive.
+fn sampling_rates(rates: &[f32]) -> Result<()> {
+    if rates.iter().all(|r| r.is_finite() && *r >= 0.0) && rates.iter().any(|r| *r > 0.0) {
+        Ok(())
+    } else {
+        Err(Error::new(format!(
+            "sampling rates must be finite and ≥ 0, some positive, got {rates:?}"
+        )))
     }
 }
 

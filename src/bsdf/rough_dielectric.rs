@@ -228,7 +228,7 @@ impl Lobes {
 /// `ior` (inside over outside; `m` and +z point outside): Snell's law about m, `None` under total
 /// internal reflection.
 #[inline]
-fn refract_through(w: Vec3, m: Vec3, ior: f32) -> Option<Vec3> {
+pub(super) fn refract_through(w: Vec3, m: Vec3, ior: f32) -> Option<Vec3> {
     let c = w.dot(m);
     let eta = if c > 0.0 { ior } else { 1.0 / ior };
     let sin2_t = (1.0 - c * c).max(0.0) / (eta * eta);
