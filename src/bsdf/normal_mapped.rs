@@ -99,7 +99,12 @@ impl NormalMapped {
     /// True when both directions of a pair below the surface see the map mirrored (a two-sided
     /// reflecting nested model).
     fn mirrors_back(&self) -> bool {
-        !matches!(self.nested, Bsdf::OneSided(_)) && !self.nested.is_transmissive()
+        match &self.nested {
+            Bsdf::OneSided(_) | Bsdf::PrincipledThin(_) => false,
+            // The principled model has its own back side unless two-sided.
+            Bsdf::Principled(p) => p.two_sided,
+            b => !b.is_transmissive(),
+        }
     }
 
     /// Whether the map tilts the normal at all sideways (otherwise both frames are one).

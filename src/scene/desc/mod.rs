@@ -102,6 +102,19 @@
 //! ior = 1.49                        # (no internal reflection); default 1.49; alpha or
 //! distribution = "ggx"              # alpha_u and alpha_v; specular_reflectance as
 //! alpha = 0.06                      # rough_plastic's
+//! [materials.car_paint]
+//! type = "principled"               # Mitsuba's `principled` (Disney's model): base_color
+//! base_color = [0.6, 0.05, 0.05]    # (colour or texture, default 0.5), roughness (0.5),
+//! metallic = 0.3                    # anisotropic, metallic, spec_trans, spec_tint, sheen,
+//! clearcoat = 1.0                   # sheen_tint, flatness, clearcoat, clearcoat_gloss (numbers
+//! clearcoat_gloss = 0.9             # in [0, 1] or textures, default 0); specular (0.5) or eta;
+//!                                   # the three *_sampling_rate; two_sided (default false:
+//!                                   # black from behind unless it transmits)
+//! [materials.leaf_sheet]
+//! type = "principled_thin"          # Mitsuba's `principledthin`: a sheet, the same from both
+//! diff_trans = 1.2                  # sides; diff_trans in [0, 2], eta (default 1.5), the
+//! base_color = [0.2, 0.5, 0.1]      # principled weights but metallic and clearcoat, and four
+//!                                   # *_sampling_rate
 //! [materials.matte_front]
 //! type = "one_sided"                # black from behind, as Mitsuba's BSDFs without `twosided`
 //! bsdf = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }   # any reflecting material

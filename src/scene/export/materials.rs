@@ -116,6 +116,64 @@ pub(super) fn material_xml(
             "",
             files,
         )?),
+        // Its own sidedness: bare (Mitsuba's), or in `twosided` when two-sided.
+        MaterialDesc::Principled(p) => {
+            let weights = [
+                ("roughness", &p.roughness),
+                ("anisotropic", &p.anisotropic),
+                ("metallic", &p.metallic),
+                ("spec_trans", &p.spec_trans),
+                ("spec_tint", &p.spec_tint),
+                ("sheen", &p.sheen),
+                ("sheen_tint", &p.sheen_tint),
+                ("flatness", &p.flatness),
+                ("clearcoat", &p.clearcoat),
+                ("clearcoat_gloss", &p.clearcoat_gloss),
+            ];
+            let numbers = [
+                ("specular", p.specular),
+                ("eta", p.eta),
+                ("diffuse_reflectance_sampling_rate", p.diffuse_reflectance_sampling_rate),
+                ("main_specular_sampling_rate", p.main_specular_sampling_rate),
+                ("clearcoat_sampling_rate", p.clearcoat_sampling_rate),
+            ];
+            let inner = principled_xml("principled", p.base_color.as_ref(), &weights, &numbers, files)?;
+            if p.two_sided.unwrap_or(false) && !one_sided {
+                format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n")
+            } else {
+                indented_out(&inner).replacen(">", &format!(" id=\"{id}\">"), 1)
+            }
+        }
+        MaterialDesc::PrincipledThin(p) => {
+            let weights = [
+                ("roughness", &p.roughness),
+                ("anisotropic", &p.anisotropic),
+                ("spec_trans", &p.spec_trans),
+                ("diff_trans", &p.diff_trans),
+                ("spec_tint", &p.spec_tint),
+                ("sheen", &p.sheen),
+                ("sheen_tint", &p.sheen_tint),
+                ("flatness", &p.flatness),
+            ];
+            let numbers = [
+                ("eta", p.eta),
+                (
+                    "specular_reflectance_sampling_rate",
+                    p.specular_reflectance_sampling_rate,
+                ),
+                (
+                    "specular_transmittance_sampling_rate",
+                    p.specular_transmittance_sampling_rate,
+                ),
+                ("diffuse_reflectance_sampling_rate", p.diffuse_reflectance_sampling_rate),
+                (
+                    "diffuse_transmittance_sampling_rate",
+                    p.diffuse_transmittance_sampling_rate,
+                ),
+            ];
+            let inner = principled_xml("principledthin", p.base_color.as_ref(), &weights, &numbers, files)?;
+            indented_out(&inner).replacen(">", &format!(" id=\"{id}\">"), 1)
+        }
         MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
         MaterialDesc::Mask(m) => {
             // The nested material as it would stand alone, its id moved to the mask.
@@ -183,6 +241,37 @@ pub(super) fn scalar_xml(name: &str, v: Option<&desc::ScalarDesc>, files: &Files
     scalar_xml_at(name, Some(v.unwrap_or(&desc::ScalarDesc::Value(0.5))), files, OUTER)
 }
 
+/// A principled BSDF (`kind`) at the nested indentation: its base colour, the weights given
+/// (numbers or textures) and the plain numbers given; Mitsuba's defaults are ours.
+fn principled_xml(
+    kind: &str,
+    base_color: Option<&Color>,
+    weights: &[(&str, &Option<desc::ScalarDesc>)],
+    numbers: &[(&str, Option<f64>)],
+    files: &Files,
+) -> Result<String> {
+    let mut props = match base_color {
+        Some(c) => files.color("base_color", c, INNER)?,
+        None => String::new(),
+    };
+    for (name, w) in weights {
+        props += &scalar_xml_at(name, w.as_ref(), files, INNER)?;
+    }
+    for (name, x) in numbers {
+        if let Some(x) = x {
+            props += &format!("{INNER}<float name=\"{name}\" value=\"{x}\"/>\n");
+        }
+    }
+    Ok(format!("        <bsdf type=\"{kind}\">\n{props}        </bsdf>\n"))
+}
+
+/// A nested element moved out one level (four spaces less on every line).
+fn indented_out(xml: &str) -> String {
+    xml.lines()
+        .map(|l| format!("{}\n", l.strip_prefix("    ").unwrap_or(l)))
+        .collect()
+}
+
 /// A number parameter (or its texture) at `indent`; nothing when absent.
 fn scalar_xml_at(name: &str, v: Option<&desc::ScalarDesc>, files: &Files, indent: &str) -> Result<String> {
     match v {
@@ -212,7 +301,13 @@ fn surface_map_xml(
             | MaterialDesc::RoughDielectric(_)
             | MaterialDesc::DiffuseTransmission(_)
     );
-    let mirrored = !one_sided && !transmits && !matches!(bsdf, MaterialDesc::OneSided(_));
+    // The principled models have their own sides: a two-sided one goes bare inside the
+    // mirrored map, a one-sided one and the thin sheet keep theirs inside a plain map.
+    let own_sides = match bsdf {
+        MaterialDesc::Principled(p) => !p.two_sided.unwrap_or(false),
+        b => matches!(b, MaterialDesc::PrincipledThin(_) | MaterialDesc::OneSided(_)),
+    };
+    let mirrored = !one_sided && !transmits && !own_sides;
     let id_attr = format!(" id=\"{id}\"");
     let inner = indented(&nested(one_sided || mirrored)?.replacen(&id_attr, "", 1));
     let map = format!("    <bsdf type=\"{kind}\"{id_attr}>\n{props}{inner}    </bsdf>\n");

@@ -30,6 +30,7 @@ mod locate;
 mod media;
 mod mesh;
 mod mesh_formats;
+mod principled;
 pub use mesh_formats::mesh_file_has_normals;
 mod rough;
 pub(crate) use rough::PLASTIC_DEFAULT_IOR;

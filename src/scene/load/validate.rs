@@ -1,6 +1,7 @@
 //! The third stage, meaning: numbers in range, colours, energies, the camera and the
 //! materials (BSDFs built and checked), each error one line naming the field.
 
+use super::principled;
 use super::rough;
 use super::textures::Textures;
 use super::*;
@@ -369,7 +370,9 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
         | MaterialDesc::RoughDielectric(_)
         | MaterialDesc::RoughPlastic(_)
         | MaterialDesc::Pplastic(_)
-        | MaterialDesc::Plastic(_) => {}
+        | MaterialDesc::Plastic(_)
+        | MaterialDesc::Principled(_)
+        | MaterialDesc::PrincipledThin(_) => {}
         MaterialDesc::OneSided(m) => {
             if matches!(
                 *m.bsdf,
@@ -377,6 +380,8 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
                     | MaterialDesc::ThinDielectric(_)
                     | MaterialDesc::RoughDielectric(_)
                     | MaterialDesc::DiffuseTransmission(_)
+                    | MaterialDesc::Principled(_)
+                    | MaterialDesc::PrincipledThin(_)
                     | MaterialDesc::OneSided(_)
                     | MaterialDesc::Mask(_)
                     | MaterialDesc::NormalMap(_)
@@ -385,7 +390,7 @@ pub(super) fn validate_material(ctx: &Ctx, field: &str, d: &MaterialDesc) -> Res
             ) {
                 return Err(ctx.err(
                     &f("bsdf"),
-                    "expected a reflecting material (a dielectric, a sheet or diffuse transmission has two sides by nature)",
+                    "expected a reflecting material (a dielectric, a sheet or diffuse transmission has two sides by nature; a principled material has its own `two_sided`)",
                 ));
             }
             validate_material(ctx, &f("bsdf"), &m.bsdf)?;
@@ -528,6 +533,8 @@ pub(super) fn make_bsdf(ctx: &Ctx, field: &str, d: &MaterialDesc, textures: &mut
         MaterialDesc::RoughPlastic(m) => rough::rough_plastic(ctx, field, m, textures)?,
         MaterialDesc::Pplastic(m) => rough::pplastic(ctx, field, m, textures)?,
         MaterialDesc::Plastic(m) => rough::plastic(ctx, field, m, textures)?,
+        MaterialDesc::Principled(m) => principled::principled(ctx, field, m, textures)?,
+        MaterialDesc::PrincipledThin(m) => principled::principled_thin(ctx, field, m, textures)?,
         MaterialDesc::OneSided(m) => {
             Bsdf::OneSided(Box::new(make_bsdf(ctx, &format!("{field}.bsdf"), &m.bsdf, textures)?))
         }

@@ -55,26 +55,38 @@ impl<'a, 'i> Reader<'a, 'i> {
                 _ => {}
             }
             let m = self.one_bsdf(inner)?;
-            if matches!(
-                m,
-                MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_) | MaterialDesc::RoughDielectric(_)
-            ) {
-                return Err(self.err(inner, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
+            match &m {
+                MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_) | MaterialDesc::RoughDielectric(_) => {
+                    return Err(self.err(inner, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
+                }
+                MaterialDesc::PrincipledThin(_) => {
+                    return Err(self.err(
+                        inner,
+                        "a principledthin transmits, so it cannot be two-sided (Mitsuba refuses it too)",
+                    ));
+                }
+                MaterialDesc::Principled(p) if p.spec_trans.is_some() => {
+                    return Err(self.err(
+                        inner,
+                        "a principled BSDF with spec_trans transmits, so it cannot be two-sided (Mitsuba refuses it too)",
+                    ));
+                }
+                _ => {}
             }
             return Ok(m);
         }
         let m = self.one_bsdf(n)?;
         // Without `twosided`, Mitsuba's reflecting BSDFs are black from behind: so is ours.
-        Ok(
-            if matches!(
-                m,
-                MaterialDesc::Dielectric(_) | MaterialDesc::ThinDielectric(_) | MaterialDesc::RoughDielectric(_)
-            ) {
-                m
-            } else {
-                MaterialDesc::OneSided(desc::OneSided { bsdf: Box::new(m) })
-            },
-        )
+        // Dielectrics and the thin principled sheet have two sides by nature; the principled
+        // model has its own back side.
+        Ok(match m {
+            MaterialDesc::Dielectric(_)
+            | MaterialDesc::ThinDielectric(_)
+            | MaterialDesc::RoughDielectric(_)
+            | MaterialDesc::PrincipledThin(_) => m,
+            MaterialDesc::Principled(p) => MaterialDesc::Principled(desc::Principled { two_sided: None, ..p }),
+            m => MaterialDesc::OneSided(desc::OneSided { bsdf: Box::new(m) }),
+        })
     }
 
     pub(super) fn one_bsdf(&mut self, n: Node<'a, 'i>) -> Result<MaterialDesc> {
@@ -221,12 +233,14 @@ impl<'a, 'i> Reader<'a, 'i> {
                         .unwrap_or(Fixed([1.0; 3])),
                 })
             }
+            "principled" => MaterialDesc::Principled(self.principled(&mut o)?),
+            "principledthin" => MaterialDesc::PrincipledThin(self.principled_thin(&mut o)?),
             other => {
                 return Err(self.err(
                     n,
                     format!(
                         "unsupported BSDF {other:?} (diffuse, conductor, roughconductor, dielectric, \
-                         roughdielectric, thindielectric, plastic, roughplastic, pplastic, polarizer, twosided, mask, blendbsdf, normalmap, bumpmap)"
+                         roughdielectric, thindielectric, plastic, roughplastic, pplastic, principled, principledthin, polarizer, twosided, mask, blendbsdf, normalmap, bumpmap)"
                     ),
                 ));
             }
@@ -255,6 +269,61 @@ impl<'a, 'i> Reader<'a, 'i> {
             weight,
             bsdfs: vec![nested(self, a)?, nested(self, b)?],
         }))
+    }
+
+    /// A `principled` BSDF's properties, read as the model inside `twosided` (the caller makes a
+    /// bare one one-sided, [`Reader::bsdf`]).
+    fn principled(&mut self, o: &mut Obj<'a, 'i>) -> Result<desc::Principled> {
+        Ok(desc::Principled {
+            base_color: self.texture_colour(o, "base_color")?,
+            roughness: self.scalar_texture(o, "roughness")?,
+            anisotropic: self.scalar_texture(o, "anisotropic")?,
+            metallic: self.scalar_texture(o, "metallic")?,
+            spec_trans: self.scalar_texture(o, "spec_trans")?.filter(|s| !is_zero(s)),
+            spec_tint: self.scalar_texture(o, "spec_tint")?,
+            sheen: self.scalar_texture(o, "sheen")?,
+            sheen_tint: self.scalar_texture(o, "sheen_tint")?,
+            flatness: self.scalar_texture(o, "flatness")?,
+            clearcoat: self.scalar_texture(o, "clearcoat")?,
+            clearcoat_gloss: self.scalar_texture(o, "clearcoat_gloss")?,
+            specular: self.float(o, "specular")?,
+            eta: self.float(o, "eta")?,
+            diffuse_reflectance_sampling_rate: self.float(o, "diffuse_reflectance_sampling_rate")?,
+            main_specular_sampling_rate: self.float(o, "main_specular_sampling_rate")?,
+            clearcoat_sampling_rate: self.float(o, "clearcoat_sampling_rate")?,
+            two_sided: Some(true),
+        })
+    }
+
+    /// A `principledthin` BSDF's properties; its `eta` must be a number.
+    fn principled_thin(&mut self, o: &mut Obj<'a, 'i>) -> Result<desc::PrincipledThin> {
+        let eta = match self.scalar_texture(o, "eta")? {
+            None => None,
+            Some(desc::ScalarDesc::Value(v)) => Some(v),
+            Some(desc::ScalarDesc::Texture(_)) => {
+                let p = o.node;
+                return Err(self.err(
+                    p,
+                    "eta: a textured index of refraction is not supported (give a <float>)",
+                ));
+            }
+        };
+        Ok(desc::PrincipledThin {
+            base_color: self.texture_colour(o, "base_color")?,
+            roughness: self.scalar_texture(o, "roughness")?,
+            anisotropic: self.scalar_texture(o, "anisotropic")?,
+            spec_trans: self.scalar_texture(o, "spec_trans")?,
+            diff_trans: self.scalar_texture(o, "diff_trans")?,
+            spec_tint: self.scalar_texture(o, "spec_tint")?,
+            sheen: self.scalar_texture(o, "sheen")?,
+            sheen_tint: self.scalar_texture(o, "sheen_tint")?,
+            flatness: self.scalar_texture(o, "flatness")?,
+            eta,
+            specular_reflectance_sampling_rate: self.float(o, "specular_reflectance_sampling_rate")?,
+            specular_transmittance_sampling_rate: self.float(o, "specular_transmittance_sampling_rate")?,
+            diffuse_reflectance_sampling_rate: self.float(o, "diffuse_reflectance_sampling_rate")?,
+            diffuse_transmittance_sampling_rate: self.float(o, "diffuse_transmittance_sampling_rate")?,
+        })
     }
 
     /// A number that may be a texture: a `<float>`, a colour's luminance, or a texture.
@@ -426,4 +495,10 @@ impl<'a, 'i> Reader<'a, 'i> {
             Err(self.err(p, format!("value: expected a positive index of refraction, got {v}")))
         }
     }
+}
+
+/// A weight given as the number 0: Mitsuba's `get_flag` reads it as absent (no transmission
+/// lobe, so `twosided` accepts the model).
+fn is_zero(s: &desc::ScalarDesc) -> bool {
+    matches!(s, desc::ScalarDesc::Value(v) if *v == 0.0)
 }
