@@ -62,7 +62,10 @@ fn principled_reads_with_mitsubas_defaults_and_eta() {
         p.eta
     );
     assert!(p.two_sided);
-    assert_eq!((p.base_color.z, p.metallic, p.rates), (0.3, 0.4, [1.0, 1.0, 0.5]));
+    assert_eq!(
+        (p.shared.base_color.z, p.metallic, p.rates),
+        (0.3, 0.4, [1.0, 1.0, 0.5])
+    );
     let s = load_bsdf(
         r#"<bsdf type="principled"><float name="eta" value="1.33"/></bsdf>"#,
         &[],
@@ -141,7 +144,7 @@ fn principled_weights_and_colour_may_be_textures() {
     }
     // The model holds the largest roughness but the least metallic (its most diffuse point).
     let p = principled(&s);
-    assert_eq!((p.roughness, p.metallic), (1.0, 0.0));
+    assert_eq!((p.shared.roughness, p.metallic), (1.0, 0.0));
     // At a hit the textures set the model's parameters.
     let mut at = m.bsdf.clone();
     for (param, t) in &m.textures {
@@ -153,7 +156,7 @@ fn principled_weights_and_colour_may_be_textures() {
         assert!(at.set_color(*param, v));
     }
     let Bsdf::Principled(hit) = at else { panic!() };
-    assert_eq!((hit.roughness, hit.metallic), (1.0, 1.0));
+    assert_eq!((hit.shared.roughness, hit.metallic), (1.0, 1.0));
 }
 
 #[test]

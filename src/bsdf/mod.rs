@@ -93,7 +93,7 @@ pub use normal_mapped::{NormalMapped, OWN_FRAME_SHARE};
 pub use phong::Phong;
 pub use plastic::{Plastic, fresnel_diffuse_reflectance};
 pub use pplastic::Pplastic;
-pub use principled::{Principled, PrincipledParam};
+pub use principled::{DisneyParams, Principled, PrincipledParam};
 pub use principled_thin::PrincipledThin;
 pub use rough_dielectric::{Lobes, RoughDielectric};
 pub use rough_plastic::RoughPlastic;
@@ -475,8 +475,8 @@ impl Bsdf {
             Bsdf::OneSided(b) => return b.is_transmissive(),
             Bsdf::NormalMapped(b) => return b.nested.is_transmissive(),
             Bsdf::Blend(b) => return b.bsdfs.iter().any(Bsdf::is_transmissive),
-            Bsdf::Principled(b) => return b.spec_trans > 0.0 && b.metallic < 1.0,
-            Bsdf::PrincipledThin(b) => return b.spec_trans > 0.0 || b.diff_trans > 0.0,
+            Bsdf::Principled(b) => return b.shared.spec_trans > 0.0 && b.metallic < 1.0,
+            Bsdf::PrincipledThin(b) => return b.shared.spec_trans > 0.0 || b.diff_trans > 0.0,
             _ => {}
         }
         matches!(
@@ -499,8 +499,8 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             Bsdf::Pplastic(b) => b.distribution.alpha_u != b.distribution.alpha_v,
             Bsdf::RoughDielectric(b) => b.distribution.alpha_u != b.distribution.alpha_v,
-            Bsdf::Principled(b) => b.anisotropic != 0.0,
-            Bsdf::PrincipledThin(b) => b.anisotropic != 0.0,
+            Bsdf::Principled(b) => b.shared.anisotropic != 0.0,
+            Bsdf::PrincipledThin(b) => b.shared.anisotropic != 0.0,
             _ => false,
         }
     }
@@ -712,48 +712,8 @@ impl Bsdf {
                 b.bsdfs[1].validate()
             }
             Bsdf::Coated(b) => b.validate(),
-            Bsdf::Principled(b) => {
-                unit("base_color", b.base_color)?;
-                for (name, x) in [
-                    ("roughness", b.roughness),
-                    ("anisotropic", b.anisotropic),
-                    ("metallic", b.metallic),
-                    ("spec_trans", b.spec_trans),
-                    ("spec_tint", b.spec_tint),
-                    ("sheen", b.sheen),
-                    ("sheen_tint", b.sheen_tint),
-                    ("flatness", b.flatness),
-                    ("clearcoat", b.clearcoat),
-                    ("clearcoat_gloss", b.clearcoat_gloss),
-                ] {
-                    unit(name, Vec3::splat(x))?;
-                }
-                positive("eta", b.eta)?;
-                sampling_rates(&b.rates)?;
-                if b.two_sided && b.spec_trans > 0.0 {
-                    return Err(Error::new(
-                        "a two-sided principled material cannot transmit (spec_trans must be 0)",
-                    ));
-                }
-                Ok(())
-            }
-            Bsdf::PrincipledThin(b) => {
-                unit("base_color", b.base_color)?;
-                for (name, x) in [
-                    ("roughness", b.roughness),
-                    ("anisotropic", b.anisotropic),
-                    ("spec_trans", b.spec_trans),
-                    ("spec_tint", b.spec_tint),
-                    ("sheen", b.sheen),
-                    ("sheen_tint", b.sheen_tint),
-                    ("flatness", b.flatness),
-                    ("diff_trans / 2", 0.5 * b.diff_trans),
-                ] {
-                    unit(name, Vec3::splat(x))?;
-                }
-                positive("eta", b.eta)?;
-                sampling_rates(&b.rates)
-            }
+            Bsdf::Principled(b) => b.validate(),
+            Bsdf::PrincipledThin(b) => b.validate(),
         }
     }
 
@@ -769,17 +729,6 @@ impl Bsdf {
             Bsdf::Coated(b) => !b.is_mirror(),
             _ => false,
         }
-    }
-}
-
-/// Sampling rates: finite, non-negative, some positive.
-fn sampling_rates(rates: &[f32]) -> Result<()> {
-    if rates.iter().all(|r| r.is_finite() && *r >= 0.0) && rates.iter().any(|r| *r > 0.0) {
-        Ok(())
-    } else {
-        Err(Error::new(format!(
-            "sampling rates must be finite and ≥ 0, some positive, got {rates:?}"
-        )))
     }
 }
 

@@ -46,27 +46,110 @@ use super::microfacet::{Microfacet, MicrofacetType};
 use super::rough_dielectric::refract_through;
 use super::{BsdfSample, TransportMode, fresnel_dielectric};
 use crate::color::luminance;
+use crate::error::{Error, Result};
 use crate::sampling::sample_cosine_hemisphere;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
-/// Mitsuba's `principled`. Every weight lies in [0, 1]; `eta` > 0 (interior over exterior).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Principled {
-    /// The base colour (`base_color`), in [0, 1] per channel.
+/// The parameters both principled models read, with Mitsuba's defaults
+/// ([`DisneyParams::default`]): every weight in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DisneyParams {
+    /// The base colour (`base_color`), in [0, 1] per channel; default 0.5.
     pub base_color: Vec3,
+    /// Default 0.5.
     pub roughness: f32,
     pub anisotropic: f32,
-    pub metallic: f32,
-    /// Share of the dielectric part that is transmission (`spec_trans`).
+    /// The share of transmission (`spec_trans`): of the dielectric part in [`Principled`], of
+    /// the glossy lobes in [`super::PrincipledThin`].
     pub spec_trans: f32,
-    /// η of the dielectric part; Mitsuba derives it from `specular` when `eta` is not given:
-    /// η = 2 / (1 − √(0.08 specular)) − 1 ([`Principled::eta_of_specular`]).
-    pub eta: f32,
     pub spec_tint: f32,
     pub sheen: f32,
     pub sheen_tint: f32,
     pub flatness: f32,
+}
+
+impl Default for DisneyParams {
+    fn default() -> Self {
+        Self {
+            base_color: Vec3::splat(0.5),
+            roughness: 0.5,
+            anisotropic: 0.0,
+            spec_trans: 0.0,
+            spec_tint: 0.0,
+            sheen: 0.0,
+            sheen_tint: 0.0,
+            flatness: 0.0,
+        }
+    }
+}
+
+impl DisneyParams {
+    /// The field a textured parameter sets, if it is one of these.
+    fn field(&mut self, param: PrincipledParam) -> Option<&mut f32> {
+        use PrincipledParam::*;
+        Some(match param {
+            Roughness => &mut self.roughness,
+            Anisotropic => &mut self.anisotropic,
+            SpecTrans => &mut self.spec_trans,
+            SpecTint => &mut self.spec_tint,
+            Sheen => &mut self.sheen,
+            SheenTint => &mut self.sheen_tint,
+            Flatness => &mut self.flatness,
+            BaseColor | Metallic | Clearcoat | ClearcoatGloss | DiffTrans => return None,
+        })
+    }
+
+    /// Sets a textured parameter (the base colour, or one of the shared numbers from any
+    /// channel); false for a parameter that is not shared.
+    pub(super) fn set(&mut self, param: PrincipledParam, c: Vec3) -> bool {
+        if param == PrincipledParam::BaseColor {
+            self.base_color = c;
+            return true;
+        }
+        match self.field(param) {
+            Some(f) => {
+                *f = c.x;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Every shared weight in [0, 1] and the base colour too.
+    pub(super) fn validate(&self) -> Result<()> {
+        unit("base_color", self.base_color)?;
+        for (name, x) in [
+            ("roughness", self.roughness),
+            ("anisotropic", self.anisotropic),
+            ("spec_trans", self.spec_trans),
+            ("spec_tint", self.spec_tint),
+            ("sheen", self.sheen),
+            ("sheen_tint", self.sheen_tint),
+            ("flatness", self.flatness),
+        ] {
+            unit(name, Vec3::splat(x))?;
+        }
+        Ok(())
+    }
+
+    /// Diffuse, retro-reflection, fake subsurface and sheen ([`disney_diffuse_and_sheen`]).
+    #[inline]
+    pub(super) fn diffuse_and_sheen(&self, dirs: (Vec3, Vec3, Vec3), weights: (f32, f32)) -> Vec3 {
+        disney_diffuse_and_sheen(self, dirs, weights)
+    }
+}
+
+/// Mitsuba's `principled`. Every weight lies in [0, 1]; `eta` > 0 (interior over exterior).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Principled {
+    /// Base colour, roughness, anisotropy, spec_trans (the dielectric part's share that is
+    /// transmission), the tints, sheen and flatness.
+    pub shared: DisneyParams,
+    pub metallic: f32,
+    /// η of the dielectric part; Mitsuba derives it from `specular` when `eta` is not given:
+    /// η = 2 / (1 − √(0.08 specular)) − 1 ([`Principled::eta_of_specular`]).
+    pub eta: f32,
     pub clearcoat: f32,
     pub clearcoat_gloss: f32,
     /// Sampling rates of the diffuse, main specular and clearcoat lobes (Mitsuba's
@@ -92,16 +175,9 @@ impl Principled {
     /// Mitsuba's default material: base colour 0.5, roughness 0.5, specular 0.5, the rest 0.
     pub fn mitsuba_default() -> Self {
         Self {
-            base_color: Vec3::splat(0.5),
-            roughness: 0.5,
-            anisotropic: 0.0,
+            shared: DisneyParams::default(),
             metallic: 0.0,
-            spec_trans: 0.0,
             eta: Self::eta_of_specular(0.5),
-            spec_tint: 0.0,
-            sheen: 0.0,
-            sheen_tint: 0.0,
-            flatness: 0.0,
             clearcoat: 0.0,
             clearcoat_gloss: 0.0,
             rates: [1.0; 3],
@@ -113,12 +189,15 @@ impl Principled {
     #[inline]
     fn weights(&self) -> (f32, f32) {
         let dielectric = 1.0 - self.metallic;
-        (dielectric * (1.0 - self.spec_trans), dielectric * self.spec_trans)
+        (
+            dielectric * (1.0 - self.shared.spec_trans),
+            dielectric * self.shared.spec_trans,
+        )
     }
 
     #[inline]
     fn distribution(&self) -> Microfacet {
-        specular_distribution(self.roughness, self.anisotropic)
+        specular_distribution(self.shared.roughness, self.shared.anisotropic)
     }
 
     #[inline]
@@ -170,30 +249,15 @@ impl Principled {
             let t = scale * (1.0 - f_dielectric) * d.d(h) * d.g(wo, wi, h) * eta * eta * wo_h * wi_h
                 / (wo.z * wi.z * denom * denom);
             if t.is_finite() {
-                value += self.base_color.map(f32::sqrt) * (w_bsdf * t.abs());
+                value += self.shared.base_color.map(f32::sqrt) * (w_bsdf * t.abs());
             }
         }
         if pair.reflect && front {
-            value += self.diffuse_and_sheen(wo, wi, h, w_brdf, 1.0 - self.metallic);
+            value += self
+                .shared
+                .diffuse_and_sheen((wo, wi, h), (w_brdf, 1.0 - self.metallic));
         }
         value
-    }
-
-    /// Diffuse, retro-reflection, fake subsurface and sheen, for `wo` and `wi` on the front
-    /// side with half vector `h`: the lobes weighted `w_diffuse` and `w_sheen`.
-    #[inline]
-    fn diffuse_and_sheen(&self, wo: Vec3, wi: Vec3, h: Vec3, w_diffuse: f32, w_sheen: f32) -> Vec3 {
-        disney_diffuse_and_sheen(
-            DiffuseParams {
-                base_color: self.base_color,
-                roughness: self.roughness,
-                flatness: self.flatness,
-                sheen: self.sheen,
-                sheen_tint: self.sheen_tint,
-            },
-            (wo, wi, h),
-            (w_diffuse, w_sheen),
-        )
     }
 
     /// Mitsuba's `principled_fresnel`: on the front side the dielectric Fresnel blended with
@@ -204,11 +268,11 @@ impl Principled {
         if !front {
             return Vec3::splat(w_bsdf * f_dielectric);
         }
-        let metal = schlick(self.base_color, cos_h, self.eta) * self.metallic;
+        let metal = schlick(self.shared.base_color, cos_h, self.eta) * self.metallic;
         let eta_it = if cos_h >= 0.0 { self.eta } else { 1.0 / self.eta };
-        let tinted = schlick(tint(self.base_color) * schlick_r0(eta_it), cos_h, self.eta)
-            * ((1.0 - self.metallic) * self.spec_tint);
-        Vec3::splat((1.0 - self.metallic) * (1.0 - self.spec_tint) * f_dielectric) + metal + tinted
+        let tinted = schlick(tint(self.shared.base_color) * schlick_r0(eta_it), cos_h, self.eta)
+            * ((1.0 - self.metallic) * self.shared.spec_tint);
+        Vec3::splat((1.0 - self.metallic) * (1.0 - self.shared.spec_tint) * f_dielectric) + metal + tinted
     }
 
     /// The lobe probabilities of the mixture for a pair on side `front` whose main-lobe normal
@@ -321,7 +385,7 @@ impl Principled {
     /// Whether some lobe is diffuse (the diffuse part or the sheen riding on it).
     pub fn has_diffuse(&self) -> bool {
         let (w_brdf, _) = self.weights();
-        w_brdf > 0.0 && self.base_color.max_element() > 0.0
+        w_brdf > 0.0 && self.shared.base_color.max_element() > 0.0
     }
 
     /// A per-channel bound on ∫ f |cos θi| dωi over every `wo` (Disney's model is not energy
@@ -331,33 +395,25 @@ impl Principled {
     /// to at most 1); transmission ≤ √base w_bsdf (importance); clearcoat ≤ clearcoat ∫ D_cc dω.
     pub fn albedo(&self) -> Vec3 {
         let (w_brdf, w_bsdf) = self.weights();
-        let diffuse = self.base_color * (w_brdf * 7.0);
-        let tint = tint(self.base_color);
-        let sheen = Vec3::ONE.lerp(tint, self.sheen_tint).max(Vec3::ONE) * (PI * self.sheen * (1.0 - self.metallic));
+        let diffuse = self.shared.base_color * (w_brdf * 7.0);
+        let tint = tint(self.shared.base_color);
+        let sheen = Vec3::ONE.lerp(tint, self.shared.sheen_tint).max(Vec3::ONE)
+            * (PI * self.shared.sheen * (1.0 - self.metallic));
         let f0_tint = tint * schlick_r0(self.eta);
-        let main = Vec3::splat((1.0 - self.metallic) * (1.0 - self.spec_tint) + self.metallic)
-            + f0_tint.max(Vec3::ONE) * ((1.0 - self.metallic) * self.spec_tint);
-        let transmission = self.base_color.map(f32::sqrt) * w_bsdf;
+        let main = Vec3::splat((1.0 - self.metallic) * (1.0 - self.shared.spec_tint) + self.metallic)
+            + f0_tint.max(Vec3::ONE) * ((1.0 - self.metallic) * self.shared.spec_tint);
+        let transmission = self.shared.base_color.map(f32::sqrt) * w_bsdf;
         let clearcoat = self.clearcoat * self.clearcoat_distribution().integral();
         diffuse + sheen + main + transmission + Vec3::splat(clearcoat)
     }
-}
-
-/// The parameters the diffuse and sheen lobes of both principled models read.
-pub(super) struct DiffuseParams {
-    pub base_color: Vec3,
-    pub roughness: f32,
-    pub flatness: f32,
-    pub sheen: f32,
-    pub sheen_tint: f32,
 }
 
 /// Burley's diffuse with retro-reflection (or its flattened blend) and sheen, for `wo`, `wi` on
 /// the upper side with reflection half vector `h`, weighted (w_diffuse, w_sheen); f without
 /// the cosine [Burley 2015, eqs. 4–5; Mitsuba's `principled.cpp`].
 #[inline]
-pub(super) fn disney_diffuse_and_sheen(
-    p: DiffuseParams,
+fn disney_diffuse_and_sheen(
+    p: &DisneyParams,
     (wo, wi, h): (Vec3, Vec3, Vec3),
     (w_diffuse, w_sheen): (f32, f32),
 ) -> Vec3 {
@@ -577,25 +633,61 @@ impl Principled {
     /// Sets a textured parameter to its value at a hit (a number from any channel); false when
     /// the model has no such parameter.
     pub fn set(&mut self, param: PrincipledParam, c: Vec3) -> bool {
-        use PrincipledParam::*;
-        let field = match param {
-            BaseColor => {
-                self.base_color = c;
-                return true;
-            }
-            Roughness => &mut self.roughness,
-            Anisotropic => &mut self.anisotropic,
-            Metallic => &mut self.metallic,
-            SpecTrans => &mut self.spec_trans,
-            SpecTint => &mut self.spec_tint,
-            Sheen => &mut self.sheen,
-            SheenTint => &mut self.sheen_tint,
-            Flatness => &mut self.flatness,
-            Clearcoat => &mut self.clearcoat,
-            ClearcoatGloss => &mut self.clearcoat_gloss,
-            DiffTrans => return false,
+        let own = match param {
+            PrincipledParam::Metallic => &mut self.metallic,
+            PrincipledParam::Clearcoat => &mut self.clearcoat,
+            PrincipledParam::ClearcoatGloss => &mut self.clearcoat_gloss,
+            _ => return self.shared.set(param, c),
         };
-        *field = c.x;
+        *own = c.x;
         true
+    }
+
+    /// The ranges the model needs (the loader checks them field by field first).
+    pub fn validate(&self) -> Result<()> {
+        self.shared.validate()?;
+        for (name, x) in [
+            ("metallic", self.metallic),
+            ("clearcoat", self.clearcoat),
+            ("clearcoat_gloss", self.clearcoat_gloss),
+        ] {
+            unit(name, Vec3::splat(x))?;
+        }
+        positive_eta(self.eta)?;
+        sampling_rates(&self.rates)?;
+        if self.two_sided && self.shared.spec_trans > 0.0 {
+            return Err(Error::new(
+                "a two-sided principled material cannot transmit (spec_trans must be 0)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A colour (or a weight, splatted) in [0, 1] per channel.
+fn unit(name: &str, c: Vec3) -> Result<()> {
+    if c.is_finite() && c.cmpge(Vec3::ZERO).all() && c.cmple(Vec3::ONE).all() {
+        Ok(())
+    } else {
+        Err(Error::new(format!("{name} must lie in [0, 1] per channel, got {c}")))
+    }
+}
+
+pub(super) fn positive_eta(eta: f32) -> Result<()> {
+    if eta.is_finite() && eta > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::new(format!("eta must be positive and finite, got {eta}")))
+    }
+}
+
+/// Sampling rates: finite, non-negative, some positive.
+pub(super) fn sampling_rates(rates: &[f32]) -> Result<()> {
+    if rates.iter().all(|r| r.is_finite() && *r >= 0.0) && rates.iter().any(|r| *r > 0.0) {
+        Ok(())
+    } else {
+        Err(Error::new(format!(
+            "sampling rates must be finite and ≥ 0, some positive, got {rates:?}"
+        )))
     }
 }

@@ -2,7 +2,7 @@
 //! samplers against their densities (chi-square), and the relations every model keeps
 //! (reciprocity, sampled values equal `eval`, the albedo bound).
 
-use super::tests::{albedo_by_quadrature, albedo_by_sampling, grey, random_directions, test_wos};
+use super::tests::{albedo_by_quadrature, albedo_by_sampling, assert_reciprocal, grey, random_directions, test_wos};
 use super::*;
 use crate::sampling::Rng;
 use crate::sampling::chi2::{CHI2_ALPHA, DirectionTest, chi2_test_directions};
@@ -15,43 +15,58 @@ fn oracle_model(name: &str) -> Bsdf {
     match name {
         "principled_defaults" => Bsdf::Principled(p()),
         "principled_plain" => Bsdf::Principled(Principled {
-            base_color: Vec3::new(0.8, 0.3, 0.2),
-            roughness: 0.4,
+            shared: DisneyParams {
+                base_color: Vec3::new(0.8, 0.3, 0.2),
+                roughness: 0.4,
+                ..DisneyParams::default()
+            },
             ..p()
         }),
         "principled_everything" => Bsdf::Principled(Principled {
-            base_color: Vec3::new(0.9, 0.6, 0.2),
+            shared: DisneyParams {
+                base_color: Vec3::new(0.9, 0.6, 0.2),
+                roughness: 0.3,
+                spec_tint: 0.4,
+                anisotropic: 0.5,
+                sheen: 0.3,
+                sheen_tint: 0.2,
+                spec_trans: 0.4,
+                ..DisneyParams::default()
+            },
             metallic: 0.7,
             eta: Principled::eta_of_specular(0.6),
-            roughness: 0.3,
-            spec_tint: 0.4,
-            anisotropic: 0.5,
-            sheen: 0.3,
-            sheen_tint: 0.2,
             clearcoat: 0.6,
             clearcoat_gloss: 0.3,
-            spec_trans: 0.4,
             ..p()
         }),
         "principled_glass" => Bsdf::Principled(Principled {
-            base_color: Vec3::new(0.9, 0.9, 0.7),
-            spec_trans: 1.0,
-            roughness: 0.2,
+            shared: DisneyParams {
+                base_color: Vec3::new(0.9, 0.9, 0.7),
+                spec_trans: 1.0,
+                roughness: 0.2,
+                ..DisneyParams::default()
+            },
             eta: 1.33,
             ..p()
         }),
         "principled_sheen_flat" => Bsdf::Principled(Principled {
-            base_color: Vec3::new(0.2, 0.5, 0.3),
-            roughness: 0.8,
-            flatness: 0.7,
-            sheen: 1.0,
-            sheen_tint: 0.8,
-            spec_tint: 0.5,
+            shared: DisneyParams {
+                base_color: Vec3::new(0.2, 0.5, 0.3),
+                roughness: 0.8,
+                flatness: 0.7,
+                sheen: 1.0,
+                sheen_tint: 0.8,
+                spec_tint: 0.5,
+                ..DisneyParams::default()
+            },
             ..p()
         }),
         "principled_clearcoat" => Bsdf::Principled(Principled {
-            base_color: Vec3::new(0.4, 0.4, 0.9),
-            roughness: 0.6,
+            shared: DisneyParams {
+                base_color: Vec3::new(0.4, 0.4, 0.9),
+                roughness: 0.6,
+                ..DisneyParams::default()
+            },
             metallic: 0.2,
             clearcoat: 1.0,
             clearcoat_gloss: 0.9,
@@ -59,28 +74,36 @@ fn oracle_model(name: &str) -> Bsdf {
             ..p()
         }),
         "principled_twosided" => Bsdf::Principled(Principled {
-            base_color: Vec3::new(0.8, 0.3, 0.2),
-            roughness: 0.4,
+            shared: DisneyParams {
+                base_color: Vec3::new(0.8, 0.3, 0.2),
+                roughness: 0.4,
+                ..DisneyParams::default()
+            },
             metallic: 0.3,
             two_sided: true,
             ..p()
         }),
         "thin_everything" => Bsdf::PrincipledThin(PrincipledThin {
-            base_color: Vec3::new(0.7, 0.4, 0.3),
-            roughness: 0.3,
-            spec_trans: 0.5,
+            shared: DisneyParams {
+                base_color: Vec3::new(0.7, 0.4, 0.3),
+                roughness: 0.3,
+                spec_trans: 0.5,
+                spec_tint: 0.3,
+                sheen: 0.4,
+                sheen_tint: 0.5,
+                flatness: 0.3,
+                anisotropic: 0.4,
+            },
             diff_trans: 0.8,
             eta: 1.4,
-            spec_tint: 0.3,
-            sheen: 0.4,
-            sheen_tint: 0.5,
-            flatness: 0.3,
-            anisotropic: 0.4,
             ..t()
         }),
         "thin_translucent" => Bsdf::PrincipledThin(PrincipledThin {
+            shared: DisneyParams {
+                spec_trans: 0.2,
+                ..DisneyParams::default()
+            },
             diff_trans: 1.5,
-            spec_trans: 0.2,
             rates: [1.0, 1.0, 0.5, 1.0],
             ..t()
         }),
@@ -146,7 +169,7 @@ fn principled_models_match_mitsuba() {
         // its sampler give nothing; ours is zero there (principled.rs, "Decisions").
         let mitsuba_samples_nothing = r.wo.z < 0.0
             && r.f == Vec3::ZERO
-            && matches!(bsdf, Bsdf::Principled(ref p) if p.spec_trans == 0.0 && !p.two_sided);
+            && matches!(bsdf, Bsdf::Principled(ref p) if p.shared.spec_trans == 0.0 && !p.two_sided);
         if !mitsuba_samples_nothing {
             assert!(
                 close(pdf, r.pdf),
@@ -244,12 +267,7 @@ fn principled_models_are_reciprocal() {
             if matches!(bsdf, Bsdf::PrincipledThin(_)) && wo.z * wi.z < 0.0 {
                 continue;
             }
-            let a = bsdf.eval(wo, wi, TransportMode::Importance);
-            let b = bsdf.eval(wi, wo, TransportMode::Radiance);
-            assert!(
-                (a - b).abs().max_element() <= 1e-4 * a.abs().max_element().max(1.0),
-                "{name}: f({wo}, {wi}) = {a} but f({wi}, {wo}) = {b}"
-            );
+            assert_reciprocal(name, &bsdf, wo, wi);
         }
     }
 }
@@ -281,16 +299,22 @@ fn principled_albedo_by_sampling_matches_quadrature_and_the_bound() {
 #[test]
 fn principled_albedo_is_physical_where_the_model_is() {
     let white = Bsdf::Principled(Principled {
-        base_color: Vec3::ONE,
-        roughness: 0.0,
+        shared: DisneyParams {
+            base_color: Vec3::ONE,
+            roughness: 0.0,
+            ..DisneyParams::default()
+        },
         ..Principled::mitsuba_default()
     });
     let wo = Vec3::Z;
     let quad = albedo_by_quadrature(&white, wo, TransportMode::Radiance);
     assert!((0.9..1.1).contains(&quad), "{quad}");
     let black = Bsdf::Principled(Principled {
-        base_color: Vec3::ZERO,
-        roughness: 0.1,
+        shared: DisneyParams {
+            base_color: Vec3::ZERO,
+            roughness: 0.1,
+            ..DisneyParams::default()
+        },
         ..Principled::mitsuba_default()
     });
     let (mc, std_err) = albedo_by_sampling(&black, Vec3::new(0.0, 0.0, 1.0), TransportMode::Radiance, 40_000);
@@ -331,7 +355,7 @@ fn textured_principled_parameters_are_set_at_hits() {
     ));
     assert!(!b.set_color(ColorParam::Principled(PrincipledParam::DiffTrans), Vec3::ONE));
     let Bsdf::Principled(p) = &b else { unreachable!() };
-    assert_eq!((p.metallic, p.base_color), (0.25, Vec3::new(0.1, 0.2, 0.3)));
+    assert_eq!((p.metallic, p.shared.base_color), (0.25, Vec3::new(0.1, 0.2, 0.3)));
     let mut t = Bsdf::PrincipledThin(PrincipledThin::mitsuba_default());
     assert!(t.set_color(ColorParam::Principled(PrincipledParam::DiffTrans), Vec3::splat(1.5)));
     assert!(!t.set_color(ColorParam::Principled(PrincipledParam::Clearcoat), Vec3::ONE));

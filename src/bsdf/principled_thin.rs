@@ -20,9 +20,10 @@
 use super::BsdfSample;
 use super::microfacet::Microfacet;
 use super::principled::{
-    DiffuseParams, PrincipledParam, disney_diffuse_and_sheen, fresnel, reflect, schlick, schlick_r0,
+    DisneyParams, PrincipledParam, fresnel, positive_eta, reflect, sampling_rates, schlick, schlick_r0,
     specular_distribution, tint,
 };
+use crate::error::{Error, Result};
 use crate::sampling::sample_cosine_hemisphere;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -30,18 +31,13 @@ use std::f32::consts::FRAC_1_PI;
 /// Mitsuba's `principledthin`. Weights in [0, 1], `diff_trans` in [0, 2], `eta` > 0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PrincipledThin {
-    pub base_color: Vec3,
-    pub roughness: f32,
-    pub anisotropic: f32,
-    pub spec_trans: f32,
+    /// Base colour, roughness, anisotropy, spec_trans (the glossy lobes' share), the tints,
+    /// sheen and flatness.
+    pub shared: DisneyParams,
     /// Burley's diffuse transmission in [0, 2] (Mitsuba halves it).
     pub diff_trans: f32,
     /// The sheet's relative index of refraction (default 1.5).
     pub eta: f32,
-    pub spec_tint: f32,
-    pub sheen: f32,
-    pub sheen_tint: f32,
-    pub flatness: f32,
     /// Sampling rates of specular reflection, specular transmission, diffuse reflection and
     /// diffuse transmission (Mitsuba's `*_sampling_rate`, 1 each by default).
     pub rates: [f32; 4],
@@ -94,16 +90,9 @@ impl PrincipledThin {
     /// Mitsuba's default sheet: base colour 0.5, roughness 0.5, η 1.5, the rest 0.
     pub fn mitsuba_default() -> Self {
         Self {
-            base_color: Vec3::splat(0.5),
-            roughness: 0.5,
-            anisotropic: 0.0,
-            spec_trans: 0.0,
+            shared: DisneyParams::default(),
             diff_trans: 0.0,
             eta: 1.5,
-            spec_tint: 0.0,
-            sheen: 0.0,
-            sheen_tint: 0.0,
-            flatness: 0.0,
             rates: [1.0; 4],
         }
     }
@@ -111,13 +100,16 @@ impl PrincipledThin {
     /// The glossy reflection's distribution.
     #[inline]
     fn reflection_distribution(&self) -> Microfacet {
-        specular_distribution(self.roughness, self.anisotropic)
+        specular_distribution(self.shared.roughness, self.shared.anisotropic)
     }
 
     /// The glossy transmission's distribution: roughness scaled by 0.65 η − 0.35.
     #[inline]
     fn transmission_distribution(&self) -> Microfacet {
-        specular_distribution((0.65 * self.eta - 0.35) * self.roughness, self.anisotropic)
+        specular_distribution(
+            (0.65 * self.eta - 0.35) * self.shared.roughness,
+            self.shared.anisotropic,
+        )
     }
 
     /// Diffuse transmission's share d = diff_trans / 2.
@@ -130,7 +122,7 @@ impl PrincipledThin {
         let Some(p) = Front::new(wo, wi) else {
             return Vec3::ZERO;
         };
-        let (st, d) = (self.spec_trans, self.d());
+        let (st, d) = (self.shared.spec_trans, self.d());
         let cos = (p.wo.z * p.wi.z).abs();
         if cos == 0.0 {
             return Vec3::ZERO;
@@ -140,32 +132,26 @@ impl PrincipledThin {
             let f_dielectric = fresnel(p.wo.dot(p.h), self.eta);
             if p.reflect() && p.compatible(true) {
                 let dist = self.reflection_distribution();
-                let f_schlick = schlick(tint(self.base_color) * schlick_r0(self.eta), p.wo.dot(p.h), self.eta);
-                let f_thin = Vec3::splat(f_dielectric).lerp(f_schlick, self.spec_tint);
+                let f_schlick = schlick(
+                    tint(self.shared.base_color) * schlick_r0(self.eta),
+                    p.wo.dot(p.h),
+                    self.eta,
+                );
+                let f_thin = Vec3::splat(f_dielectric).lerp(f_schlick, self.shared.spec_tint);
                 value += f_thin * (st * dist.d(p.h) * dist.g(p.wo, p.wi, p.h) / (4.0 * cos));
             }
             if p.transmit() && p.compatible(false) {
                 let dist = self.transmission_distribution();
-                value +=
-                    self.base_color * (st * (1.0 - f_dielectric) * dist.d(p.h) * dist.g(p.wo, p.wi, p.h) / (4.0 * cos));
+                value += self.shared.base_color
+                    * (st * (1.0 - f_dielectric) * dist.d(p.h) * dist.g(p.wo, p.wi, p.h) / (4.0 * cos));
             }
         }
         if p.reflect() && st < 1.0 && d < 1.0 {
             let w = (1.0 - st) * (1.0 - d);
-            value += disney_diffuse_and_sheen(
-                DiffuseParams {
-                    base_color: self.base_color,
-                    roughness: self.roughness,
-                    flatness: self.flatness,
-                    sheen: self.sheen,
-                    sheen_tint: self.sheen_tint,
-                },
-                (p.wo, p.wi, p.h),
-                (w, w),
-            );
+            value += self.shared.diffuse_and_sheen((p.wo, p.wi, p.h), (w, w));
         }
         if p.transmit() && st < 1.0 && d > 0.0 {
-            value += self.base_color * ((1.0 - st) * d * FRAC_1_PI);
+            value += self.shared.base_color * ((1.0 - st) * d * FRAC_1_PI);
         }
         value
     }
@@ -174,7 +160,7 @@ impl PrincipledThin {
     /// summing to 1.
     #[inline]
     fn lobe_probabilities(&self) -> [f32; 4] {
-        let (st, d) = (self.spec_trans, self.d());
+        let (st, d) = (self.shared.spec_trans, self.d());
         let [r_sr, r_st, r_dr, r_dt] = self.rates;
         let p = [
             0.5 * st * r_sr,
@@ -192,7 +178,7 @@ impl PrincipledThin {
         };
         let [p_sr, p_st, p_dr, p_dt] = self.lobe_probabilities();
         let mut pdf = 0.0;
-        if self.spec_trans > 0.0 {
+        if self.shared.spec_trans > 0.0 {
             let dh_dwi = 1.0 / (4.0 * p.wi.with_z(p.wi.z.abs()).dot(p.h)).abs();
             if p.reflect() && p.compatible(true) {
                 pdf += p_sr * self.reflection_distribution().pdf(p.wo, p.h) * dh_dwi;
@@ -254,19 +240,20 @@ impl PrincipledThin {
 
     /// Whether a diffuse lobe (reflection or transmission) has weight.
     pub fn has_diffuse(&self) -> bool {
-        self.spec_trans < 1.0 && self.base_color.max_element() > 0.0
+        self.shared.spec_trans < 1.0 && self.shared.base_color.max_element() > 0.0
     }
 
     /// A per-channel bound on ∫ f |cos θi| dωi: the diffuse bound of [`super::Principled`]
     /// (7 and π sheen max(1, tint)) times its weight, diffuse transmission, and both glossy
     /// lobes at most spec_trans max(1, F_thin) and spec_trans base.
     pub fn albedo(&self) -> Vec3 {
-        let (st, d) = (self.spec_trans, self.d());
+        let (st, d) = (self.shared.spec_trans, self.d());
         let w = (1.0 - st) * (1.0 - d);
-        let tint = tint(self.base_color);
-        let sheen = Vec3::ONE.lerp(tint, self.sheen_tint).max(Vec3::ONE) * (std::f32::consts::PI * self.sheen);
-        let glossy = (tint * schlick_r0(self.eta)).max(Vec3::ONE) * st + self.base_color * st;
-        (self.base_color * 7.0 + sheen) * w + self.base_color * ((1.0 - st) * d) + glossy
+        let tint = tint(self.shared.base_color);
+        let sheen =
+            Vec3::ONE.lerp(tint, self.shared.sheen_tint).max(Vec3::ONE) * (std::f32::consts::PI * self.shared.sheen);
+        let glossy = (tint * schlick_r0(self.eta)).max(Vec3::ONE) * st + self.shared.base_color * st;
+        (self.shared.base_color * 7.0 + sheen) * w + self.shared.base_color * ((1.0 - st) * d) + glossy
     }
 }
 
@@ -274,23 +261,23 @@ impl PrincipledThin {
     /// Sets a textured parameter to its value at a hit (a number from any channel); false when
     /// the model has no such parameter.
     pub fn set(&mut self, param: PrincipledParam, c: Vec3) -> bool {
-        use PrincipledParam::*;
-        let field = match param {
-            BaseColor => {
-                self.base_color = c;
-                return true;
-            }
-            Roughness => &mut self.roughness,
-            Anisotropic => &mut self.anisotropic,
-            SpecTrans => &mut self.spec_trans,
-            SpecTint => &mut self.spec_tint,
-            Sheen => &mut self.sheen,
-            SheenTint => &mut self.sheen_tint,
-            Flatness => &mut self.flatness,
-            DiffTrans => &mut self.diff_trans,
-            Metallic | Clearcoat | ClearcoatGloss => return false,
-        };
-        *field = c.x;
-        true
+        if param == PrincipledParam::DiffTrans {
+            self.diff_trans = c.x;
+            return true;
+        }
+        self.shared.set(param, c)
+    }
+
+    /// The ranges the model needs (the loader checks them field by field first).
+    pub fn validate(&self) -> Result<()> {
+        self.shared.validate()?;
+        if !(0.0..=2.0).contains(&self.diff_trans) {
+            return Err(Error::new(format!(
+                "diff_trans must lie in [0, 2], got {}",
+                self.diff_trans
+            )));
+        }
+        positive_eta(self.eta)?;
+        sampling_rates(&self.rates)
     }
 }

@@ -3,7 +3,7 @@
 
 use super::textures::Textures;
 use super::*;
-use crate::bsdf::{Bsdf, ColorParam, Principled, PrincipledParam, PrincipledThin};
+use crate::bsdf::{Bsdf, ColorParam, DisneyParams, Principled, PrincipledParam, PrincipledThin};
 use crate::scene::desc::{Color, Fixed, ScalarDesc};
 use crate::texture::Scalar;
 
@@ -72,6 +72,31 @@ impl Weights<'_, '_> {
             c.unwrap_or(&default),
             ColorParam::Principled(PrincipledParam::BaseColor),
         )
+    }
+
+    /// The parameters both models share: the base colour, then roughness, anisotropic,
+    /// spec_trans, spec_tint, sheen, sheen_tint and flatness, in that order.
+    fn shared(&mut self, base_color: Option<&Color>, w: [&Option<ScalarDesc>; 7]) -> Result<DisneyParams> {
+        use PrincipledParam::*;
+        let [
+            roughness,
+            anisotropic,
+            spec_trans,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            flatness,
+        ] = w.map(Option::as_ref);
+        Ok(DisneyParams {
+            base_color: self.base_color(base_color)?,
+            roughness: self.number("roughness", roughness, 0.5, 1.0, Roughness)?,
+            anisotropic: self.number("anisotropic", anisotropic, 0.0, 1.0, Anisotropic)?,
+            spec_trans: self.number_least("spec_trans", spec_trans, SpecTrans)?,
+            spec_tint: self.number("spec_tint", spec_tint, 0.0, 1.0, SpecTint)?,
+            sheen: self.number("sheen", sheen, 0.0, 1.0, Sheen)?,
+            sheen_tint: self.number("sheen_tint", sheen_tint, 0.0, 1.0, SheenTint)?,
+            flatness: self.number("flatness", flatness, 0.0, 1.0, Flatness)?,
+        })
     }
 
     /// A sampling rate: finite, in [0, 10⁴], default 1.
@@ -168,17 +193,22 @@ pub(super) fn principled(ctx: &Ctx, field: &str, m: &desc::Principled, textures:
         w.rate("clearcoat_sampling_rate", m.clearcoat_sampling_rate)?,
     ];
     w.some_rate_positive(&rates)?;
+    let shared = w.shared(
+        m.base_color.as_ref(),
+        [
+            &m.roughness,
+            &m.anisotropic,
+            &m.spec_trans,
+            &m.spec_tint,
+            &m.sheen,
+            &m.sheen_tint,
+            &m.flatness,
+        ],
+    )?;
     Ok(Bsdf::Principled(Principled {
-        base_color: w.base_color(m.base_color.as_ref())?,
-        roughness: w.number("roughness", m.roughness.as_ref(), 0.5, 1.0, Roughness)?,
-        anisotropic: w.number("anisotropic", m.anisotropic.as_ref(), 0.0, 1.0, Anisotropic)?,
+        shared,
         metallic: w.number_least("metallic", m.metallic.as_ref(), Metallic)?,
-        spec_trans: w.number_least("spec_trans", m.spec_trans.as_ref(), SpecTrans)?,
         eta,
-        spec_tint: w.number("spec_tint", m.spec_tint.as_ref(), 0.0, 1.0, SpecTint)?,
-        sheen: w.number("sheen", m.sheen.as_ref(), 0.0, 1.0, Sheen)?,
-        sheen_tint: w.number("sheen_tint", m.sheen_tint.as_ref(), 0.0, 1.0, SheenTint)?,
-        flatness: w.number("flatness", m.flatness.as_ref(), 0.0, 1.0, Flatness)?,
         clearcoat: w.number("clearcoat", m.clearcoat.as_ref(), 0.0, 1.0, Clearcoat)?,
         clearcoat_gloss: w.number("clearcoat_gloss", m.clearcoat_gloss.as_ref(), 0.0, 1.0, ClearcoatGloss)?,
         rates,
@@ -193,7 +223,6 @@ pub(super) fn principled_thin(
     m: &desc::PrincipledThin,
     textures: &mut Textures,
 ) -> Result<Bsdf> {
-    use PrincipledParam::*;
     let mut w = Weights { ctx, field, textures };
     let rates = [
         w.rate(
@@ -211,17 +240,28 @@ pub(super) fn principled_thin(
         )?,
     ];
     w.some_rate_positive(&rates)?;
+    let shared = w.shared(
+        m.base_color.as_ref(),
+        [
+            &m.roughness,
+            &m.anisotropic,
+            &m.spec_trans,
+            &m.spec_tint,
+            &m.sheen,
+            &m.sheen_tint,
+            &m.flatness,
+        ],
+    )?;
     Ok(Bsdf::PrincipledThin(PrincipledThin {
-        base_color: w.base_color(m.base_color.as_ref())?,
-        roughness: w.number("roughness", m.roughness.as_ref(), 0.5, 1.0, Roughness)?,
-        anisotropic: w.number("anisotropic", m.anisotropic.as_ref(), 0.0, 1.0, Anisotropic)?,
-        spec_trans: w.number_least("spec_trans", m.spec_trans.as_ref(), SpecTrans)?,
-        diff_trans: w.number("diff_trans", m.diff_trans.as_ref(), 0.0, 2.0, DiffTrans)?,
+        shared,
+        diff_trans: w.number(
+            "diff_trans",
+            m.diff_trans.as_ref(),
+            0.0,
+            2.0,
+            PrincipledParam::DiffTrans,
+        )?,
         eta: w.eta("eta", m.eta.unwrap_or(1.5))?,
-        spec_tint: w.number("spec_tint", m.spec_tint.as_ref(), 0.0, 1.0, SpecTint)?,
-        sheen: w.number("sheen", m.sheen.as_ref(), 0.0, 1.0, Sheen)?,
-        sheen_tint: w.number("sheen_tint", m.sheen_tint.as_ref(), 0.0, 1.0, SheenTint)?,
-        flatness: w.number("flatness", m.flatness.as_ref(), 0.0, 1.0, Flatness)?,
         rates,
     }))
 }
