@@ -599,6 +599,10 @@ fn export_refuses_what_mitsuba_cannot_express() {
             "[materials.p]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n",
             "two_sided",
         ),
+        (
+            "[materials.p]\ntype = \"rough_conductor\"\nalpha = 0.04\nremap_roughness = true\n",
+            "remap_roughness",
+        ),
     ] {
         let toml = dir.path().join("x.toml");
         let text = format!(

@@ -1124,3 +1124,85 @@ fn crop_windows_and_constant_textures_mean_what_pbrt_says() {
         .collect();
     assert_eq!(opacities, [0.25]);
 }
+
+/// A float texture as a conductor's or dielectric's roughness: at every hit α is pbrt-v4's
+/// √r of the texture's value r there (`remaproughness`, the default), or r itself when the
+/// file turns remapping off; a number beside a texture (`vroughness`) is remapped alike.
+/// Coated models refuse a textured roughness in one line naming the parameter.
+#[test]
+fn textured_roughness_means_what_pbrt_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_with = |material: &str| {
+        format!(
+            "LookAt 0 5 3  0 0 0  0 1 0\n\
+             Camera \"perspective\" \"float fov\" 60\n\
+             Film \"rgb\" \"integer xresolution\" 20 \"integer yresolution\" 16\n\
+             WorldBegin\n\
+             LightSource \"distant\" \"point3 from\" [0 1 0] \"point3 to\" [0 0 0] \"rgb L\" [2 2 2]\n\
+             Texture \"checks\" \"float\" \"checkerboard\" \"float tex1\" 0.04 \"float tex2\" 0.36 \"float uscale\" 4 \"float vscale\" 4\n\
+             {material}\n\
+             Shape \"trianglemesh\" \"point3 P\" [-4 0 4  4 0 4  4 0 -4  -4 0 -4] \"integer indices\" [0 1 2 0 2 3]\n\
+                 \"point2 uv\" [0 0  1 0  1 1  0 1]\n"
+        )
+    };
+    // pbrt-v4's checkerboard: tex1 where ⌊4u⌋ + ⌊4v⌋ is even, tex2 where it is odd.
+    let checks = |uv: Vec2| {
+        if ((uv.x * 4.0).floor() + (uv.y * 4.0).floor()) as i64 % 2 == 0 {
+            0.04f32
+        } else {
+            0.36
+        }
+    };
+    // (material, whether r is remapped, α_v when it is a number rather than the texture's).
+    let cases = [
+        ("Material \"conductor\" \"texture roughness\" \"checks\"", true, None),
+        (
+            "Material \"conductor\" \"texture roughness\" \"checks\" \"bool remaproughness\" false",
+            false,
+            None,
+        ),
+        (
+            "Material \"dielectric\" \"texture uroughness\" \"checks\" \"float vroughness\" 0.09",
+            true,
+            Some(0.3f32),
+        ),
+    ];
+    for (material, remap, fixed_v) in cases {
+        let scene = load(dir.path(), "rough.pbrt", &scene_with(material)).unwrap();
+        let mut hits = 0;
+        for y in 0..16 {
+            for x in 0..20 {
+                let ray = scene.camera.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                let Some(hit) = scene.intersect(&ray) else { continue };
+                let uv = scene.uv(&hit);
+                let d = match &*scene.bsdf(&hit) {
+                    Bsdf::RoughConductor(b) => b.distribution,
+                    Bsdf::RoughDielectric(b) => b.distribution,
+                    other => panic!("{material}: {other:?}"),
+                };
+                let au = if remap { checks(uv).sqrt() } else { checks(uv) };
+                let av = fixed_v.unwrap_or(au);
+                assert!(
+                    (d.alpha_u - au).abs() < 1e-5 && (d.alpha_v - av).abs() < 1e-5,
+                    "{material} at uv {uv}: α = ({}, {}), pbrt ({au}, {av})",
+                    d.alpha_u,
+                    d.alpha_v
+                );
+                hits += 1;
+            }
+        }
+        assert!(hits > 100, "{material}: {hits} hits");
+    }
+    let err = load(
+        dir.path(),
+        "coated.pbrt",
+        &scene_with("Material \"coateddiffuse\" \"texture roughness\" \"checks\""),
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    assert!(
+        err.contains("texture roughness") && err.contains("conductor and dielectric only"),
+        "{err}"
+    );
+}

@@ -196,6 +196,11 @@ pub enum ColorParam {
     AlphaU,
     /// α_v alone (a number parameter).
     AlphaV,
+    /// [`ColorParam::Alpha`], [`ColorParam::AlphaU`] and [`ColorParam::AlphaV`] with pbrt-v4's
+    /// `remaproughness`: the value r is a roughness, α = √r.
+    AlphaRemapped,
+    AlphaURemapped,
+    AlphaVRemapped,
     /// A normal map's colour c, the normal 2c − 1 ([`NormalMapped`]; raw, never sRGB-decoded).
     NormalMap,
     /// A parameter of the principled models (their base colour, or one of their numbers).
@@ -210,7 +215,13 @@ impl ColorParam {
             ColorParam::Principled(p) => p != PrincipledParam::BaseColor,
             p => matches!(
                 p,
-                ColorParam::Weight | ColorParam::Alpha | ColorParam::AlphaU | ColorParam::AlphaV
+                ColorParam::Weight
+                    | ColorParam::Alpha
+                    | ColorParam::AlphaU
+                    | ColorParam::AlphaV
+                    | ColorParam::AlphaRemapped
+                    | ColorParam::AlphaURemapped
+                    | ColorParam::AlphaVRemapped
             ),
         }
     }
@@ -405,13 +416,17 @@ impl Bsdf {
                 b.weight = c.x.clamp(0.0, 1.0);
                 return true;
             }
-            (Bsdf::RoughConductor(RoughConductor { distribution: d, .. }), Alpha | AlphaU | AlphaV)
-            | (Bsdf::RoughDielectric(RoughDielectric { distribution: d, .. }), Alpha | AlphaU | AlphaV) => {
-                let a = c.x.max(MIN_ALPHA);
-                if param != AlphaV {
+            (
+                Bsdf::RoughConductor(RoughConductor { distribution: d, .. })
+                | Bsdf::RoughDielectric(RoughDielectric { distribution: d, .. }),
+                Alpha | AlphaU | AlphaV | AlphaRemapped | AlphaURemapped | AlphaVRemapped,
+            ) => {
+                let remapped = matches!(param, AlphaRemapped | AlphaURemapped | AlphaVRemapped);
+                let a = if remapped { c.x.max(0.0).sqrt() } else { c.x }.max(MIN_ALPHA);
+                if !matches!(param, AlphaV | AlphaVRemapped) {
                     d.alpha_u = a;
                 }
-                if param != AlphaU {
+                if !matches!(param, AlphaU | AlphaURemapped) {
                     d.alpha_v = a;
                 }
                 return true;

@@ -108,10 +108,12 @@ impl Material {
     /// textured α_u, α_v (which may differ at a hit though their largest values agree).
     pub fn is_anisotropic(&self) -> bool {
         self.bsdf.is_anisotropic()
-            || self
-                .textures
-                .iter()
-                .any(|(p, _)| matches!(p, ColorParam::AlphaU | ColorParam::AlphaV))
+            || self.textures.iter().any(|(p, _)| {
+                matches!(
+                    p,
+                    ColorParam::AlphaU | ColorParam::AlphaV | ColorParam::AlphaURemapped | ColorParam::AlphaVRemapped
+                )
+            })
     }
 
     /// Whether the shading frame's tangent must be ∂p/∂u: for an anisotropic model, and for a

@@ -243,6 +243,9 @@ pub struct Roughness {
     pub sample_visible: Option<bool>,
     /// "separable" (default, Mitsuba's G1 G1) or "height_correlated" (pbrt-v4's).
     pub masking: Option<String>,
+    /// pbrt-v4's `remaproughness` for roughness textures: a texture's value r at a hit is the
+    /// roughness α = √r (default false: the value is α).
+    pub remap_roughness: Option<bool>,
 }
 
 /// The fields of [`Roughness`], one by one in each rough material (`deny_unknown_fields` does
@@ -260,6 +263,7 @@ macro_rules! rough_material {
             pub alpha_v: Option<ScalarDesc>,
             pub sample_visible: Option<bool>,
             pub masking: Option<String>,
+            pub remap_roughness: Option<bool>,
         }
 
         impl $name {
@@ -271,6 +275,7 @@ macro_rules! rough_material {
                     alpha_v: self.alpha_v.clone(),
                     sample_visible: self.sample_visible,
                     masking: self.masking.clone(),
+                    remap_roughness: self.remap_roughness,
                 }
             }
         }

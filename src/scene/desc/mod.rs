@@ -79,6 +79,8 @@
 //!                                   # luminance; rough conductors and dielectrics); or alpha_u
 //!                                   # and alpha_v
 //! sample_visible = true             # optional: visible-normal sampling (default) or all normals
+//! remap_roughness = false           # optional: pbrt-v4's remaproughness, α = √value (numbers
+//!                                   # and textures); not expressible in Mitsuba XML
 //! [materials.frosted]
 //! type = "rough_dielectric"         # Mitsuba's `roughdielectric`, the distribution as above
 //! ior = 1.5                         # inside / outside, > 0 and not 1

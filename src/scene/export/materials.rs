@@ -378,6 +378,11 @@ fn roughness_props(r: &Roughness, indent: &str, files: &Files) -> Result<String>
             "masking = \"height_correlated\" (pbrt-v4's) has no Mitsuba 3 equivalent: its microfacet models are separable",
         ));
     }
+    if r.remap_roughness == Some(true) {
+        return Err(Error::new(
+            "remap_roughness (pbrt-v4's α = √roughness) has no Mitsuba 3 equivalent: give alpha itself",
+        ));
+    }
     let mut x = format!(
         "{indent}<string name=\"distribution\" value=\"{}\"/>\n",
         escape(r.distribution.as_deref().unwrap_or("beckmann"))

@@ -38,9 +38,19 @@ pub(super) fn microfacet(
         })?,
     };
     let default = desc::ScalarDesc::Value(0.1);
+    let remap = r.remap_roughness.unwrap_or(false);
+    let [alpha, alpha_u, alpha_v] = if remap {
+        [
+            ColorParam::AlphaRemapped,
+            ColorParam::AlphaURemapped,
+            ColorParam::AlphaVRemapped,
+        ]
+    } else {
+        [ColorParam::Alpha, ColorParam::AlphaU, ColorParam::AlphaV]
+    };
     let given: Vec<(ColorParam, &str, &desc::ScalarDesc)> = match (&r.alpha, &r.alpha_u, &r.alpha_v) {
-        (a, None, None) => vec![(ColorParam::Alpha, "alpha", a.as_ref().unwrap_or(&default))],
-        (None, Some(u), Some(v)) => vec![(ColorParam::AlphaU, "alpha_u", u), (ColorParam::AlphaV, "alpha_v", v)],
+        (a, None, None) => vec![(alpha, "alpha", a.as_ref().unwrap_or(&default))],
+        (None, Some(u), Some(v)) => vec![(alpha_u, "alpha_u", u), (alpha_v, "alpha_v", v)],
         (Some(_), _, _) => {
             return Err(ctx.err(&f("alpha"), "give either alpha or both alpha_u and alpha_v, not both"));
         }
@@ -56,7 +66,10 @@ pub(super) fn microfacet(
                 "expected a number (this model's roughness cannot be a texture)",
             ));
         }
-        alphas.push(textures.number_param(ctx, &f(key), a, (MAX_ALPHA, "a roughness"), param)?);
+        let value = textures.number_param(ctx, &f(key), a, (MAX_ALPHA, "a roughness"), param)?;
+        // pbrt-v4's remapping, α = √r, for numbers as for textures (the model holds the
+        // largest α, the texture's largest r remapped).
+        alphas.push(if remap { value.sqrt() } else { value });
     }
     let (alpha_u, alpha_v) = (alphas[0], *alphas.last().unwrap());
     let height_correlated = match r.masking.as_deref() {

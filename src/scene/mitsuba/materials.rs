@@ -122,6 +122,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                         alpha_v: r.alpha_v,
                         sample_visible: r.sample_visible,
                         masking: None,
+                        remap_roughness: None,
                     })
                 } else if c.material.is_none() && c.eta.is_none() && c.k.is_none() {
                     // Mitsuba's default conductor is a perfect mirror: ours, exactly.
@@ -146,6 +147,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     alpha_v: r.alpha_v,
                     sample_visible: r.sample_visible,
                     masking: None,
+                    remap_roughness: None,
                 })
             }
             "roughplastic" => {
@@ -162,6 +164,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     alpha_v: r.alpha_v,
                     sample_visible: r.sample_visible,
                     masking: None,
+                    remap_roughness: None,
                 })
             }
             "pplastic" => {
@@ -177,6 +180,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     alpha_v: r.alpha_v,
                     sample_visible: r.sample_visible,
                     masking: None,
+                    remap_roughness: None,
                 })
             }
             "plastic" => {
@@ -477,6 +481,7 @@ impl<'a, 'i> Reader<'a, 'i> {
             alpha_v: self.scalar_texture(o, "alpha_v")?,
             sample_visible: self.boolean(o, "sample_visible")?,
             masking: None,
+            remap_roughness: None,
         })
     }
 

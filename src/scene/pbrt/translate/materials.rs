@@ -88,7 +88,22 @@ impl Translator<'_> {
                     ],
                 )?;
                 let (material, eta, k) = self.conductor_ior(d, params, "")?;
-                conductor_desc((material, eta, k), self.roughness(d, params, "")?)
+                match self.textured_roughness(d, params)? {
+                    Some(r) => MaterialDesc::RoughConductor(desc::RoughConductor {
+                        material,
+                        eta,
+                        k,
+                        specular_reflectance: None,
+                        distribution: Some("ggx".into()),
+                        alpha: None,
+                        alpha_u: Some(r.u),
+                        alpha_v: Some(r.v),
+                        sample_visible: Some(true),
+                        masking: Some("height_correlated".into()),
+                        remap_roughness: Some(r.remap),
+                    }),
+                    None => conductor_desc((material, eta, k), self.roughness(d, params, "")?),
+                }
             }
             "dielectric" | "thindielectric" => {
                 check_known(
@@ -97,6 +112,21 @@ impl Translator<'_> {
                     &["eta", "roughness", "uroughness", "vroughness", "remaproughness"],
                 )?;
                 let eta = self.coat_eta(d, params, "eta")?;
+                let textured = self.textured_roughness(d, params)?;
+                if let Some(r) = textured.filter(|_| kind == "dielectric") {
+                    return Ok(MaterialDesc::RoughDielectric(desc::RoughDielectric {
+                        ior: eta,
+                        specular_reflectance: None,
+                        specular_transmittance: None,
+                        distribution: Some("ggx".into()),
+                        alpha: None,
+                        alpha_u: Some(r.u),
+                        alpha_v: Some(r.v),
+                        sample_visible: Some(true),
+                        masking: Some("height_correlated".into()),
+                        remap_roughness: Some(r.remap),
+                    }));
+                }
                 let (au, av) = self.roughness(d, params, "")?;
                 if kind == "thindielectric" {
                     MaterialDesc::ThinDielectric(desc::ThinDielectric {
@@ -117,6 +147,7 @@ impl Translator<'_> {
                         alpha_v: Some(desc::ScalarDesc::Value(av)),
                         sample_visible: Some(true),
                         masking: Some("height_correlated".into()),
+                        remap_roughness: None,
                     })
                 }
             }
@@ -359,6 +390,7 @@ impl Translator<'_> {
             alpha_v: rough.then_some(desc::ScalarDesc::Value(av)),
             sample_visible: rough.then_some(true),
             masking: rough.then(|| "height_correlated".into()),
+            remap_roughness: None,
         }))
     }
 
@@ -372,8 +404,45 @@ impl Translator<'_> {
         }
     }
 
+    /// A conductor's or dielectric's roughness when `roughness`, `uroughness` or `vroughness` is
+    /// a float texture: (u, v) as given (numbers or textures, default 0) and whether pbrt remaps
+    /// them (`remaproughness`, default true: α = √r at each hit, after the texture is read, as
+    /// pbrt-v4's materials do). `None` when every roughness is a number.
+    fn textured_roughness(&self, d: &Directive, params: &[Param]) -> Result<Option<TexturedRoughness>> {
+        let is_texture = |name: &str| find(params, name).is_some_and(|p| p.ty == "texture");
+        if !["roughness", "uroughness", "vroughness"].into_iter().any(is_texture) {
+            return Ok(None);
+        }
+        let value = |name: &str, default: desc::ScalarDesc| -> Result<desc::ScalarDesc> {
+            if is_texture(name) {
+                let Some(Color::Texture(t)) = self.colour_or_number(d, params, name, false, true)? else {
+                    unreachable!("a texture parameter names a texture")
+                };
+                return Ok(desc::ScalarDesc::Texture(t));
+            }
+            match float_param(d, params, name)? {
+                None => Ok(default),
+                Some(x) if x >= 0.0 => Ok(desc::ScalarDesc::Value(x)),
+                Some(x) => Err(d.err(format!("{name}: expected a number ≥ 0, got {x}"))),
+            }
+        };
+        let r = value("roughness", desc::ScalarDesc::Value(0.0))?;
+        Ok(Some(TexturedRoughness {
+            u: value("uroughness", r.clone())?,
+            v: value("vroughness", r)?,
+            remap: bool_param(d, params, "remaproughness")?.unwrap_or(true),
+        }))
+    }
+
     /// `prefix` names a layer of a coated model (`interface.`, `conductor.`).
     fn roughness(&self, d: &Directive, params: &[Param], prefix: &str) -> Result<(f64, f64)> {
+        for name in ["roughness", "uroughness", "vroughness"].map(|n| format!("{prefix}{n}")) {
+            if find(params, &name).is_some_and(|p| p.ty == "texture") {
+                return Err(d.err(format!(
+                    "parameter \"texture {name}\": a textured roughness is read for conductor and dielectric only"
+                )));
+            }
+        }
         let r = float_param(d, params, &format!("{prefix}roughness"))?.unwrap_or(0.0);
         let u = float_param(d, params, &format!("{prefix}uroughness"))?.unwrap_or(r);
         let v = float_param(d, params, &format!("{prefix}vroughness"))?.unwrap_or(r);
@@ -386,6 +455,13 @@ impl Translator<'_> {
             (u, v)
         })
     }
+}
+
+/// A roughness with a texture in it ([`Translator::textured_roughness`]).
+struct TexturedRoughness {
+    u: desc::ScalarDesc,
+    v: desc::ScalarDesc,
+    remap: bool,
 }
 
 /// A smooth conductor below α 10⁻³ (pbrt's `EffectivelySmooth`), a GGX rough conductor with
@@ -413,5 +489,6 @@ fn conductor_desc(
         alpha_v: Some(desc::ScalarDesc::Value(av)),
         sample_visible: Some(true),
         masking: Some("height_correlated".into()),
+        remap_roughness: None,
     })
 }
