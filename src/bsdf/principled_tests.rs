@@ -2,10 +2,12 @@
 //! samplers against their densities (chi-square), and the relations every model keeps
 //! (reciprocity, sampled values equal `eval`, the albedo bound).
 
-use super::tests::{albedo_by_quadrature, albedo_by_sampling, assert_reciprocal, grey, random_directions, test_wos};
+use super::tests::{
+    albedo_by_quadrature, albedo_by_sampling, assert_reciprocal, assert_sampler_follows_pdf, grey, random_directions,
+    test_wos,
+};
 use super::*;
 use crate::sampling::Rng;
-use crate::sampling::chi2::{CHI2_ALPHA, DirectionTest, chi2_test_directions};
 use glam::Vec3;
 
 /// The models of `scripts/principled_oracle.py`, by the names it prints.
@@ -216,19 +218,7 @@ fn both_sides() -> Vec<Vec3> {
 fn principled_samplers_pass_chi2() {
     for (seed, (name, bsdf)) in principled_models().into_iter().enumerate() {
         for (k, wo) in both_sides().into_iter().enumerate() {
-            let report = chi2_test_directions(
-                |rng: &mut Rng| {
-                    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
-                    bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)
-                        .map(|s| (s.wi, s.pdf_w))
-                },
-                |wi| bsdf.pdf(wo, wi),
-                DirectionTest {
-                    seed: (seed * 16 + k) as u64 + 900,
-                    ..DirectionTest::default()
-                },
-            );
-            assert!(report.passes(CHI2_ALPHA), "{name}, wo = {wo}: {report:?}");
+            assert_sampler_follows_pdf(name, &bsdf, wo, (seed * 16 + k) as u64 + 900);
         }
     }
 }

@@ -223,21 +223,27 @@ pub(super) fn grey(c: Vec3) -> f64 {
 fn every_non_delta_sampler_passes_chi2() {
     for (seed, (name, bsdf)) in non_delta_models().into_iter().enumerate() {
         for (k, wo) in test_wos().into_iter().enumerate() {
-            let report = chi2_test_directions(
-                |rng: &mut Rng| {
-                    let (u, u_lobe) = (rng.uniform2(), rng.uniform());
-                    bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)
-                        .map(|s| (s.wi, s.pdf_w))
-                },
-                |wi| bsdf.pdf(wo, wi),
-                DirectionTest {
-                    seed: (seed * 16 + k) as u64,
-                    ..DirectionTest::default()
-                },
-            );
-            assert!(report.passes(CHI2_ALPHA), "{name}, wo = {wo}: {report:?}");
+            assert_sampler_follows_pdf(name, &bsdf, wo, (seed * 16 + k) as u64);
         }
     }
+}
+
+/// χ² of the model's sampler from `wo` against its `pdf` (radiance transport), at
+/// [`CHI2_ALPHA`].
+pub(super) fn assert_sampler_follows_pdf(name: &str, bsdf: &Bsdf, wo: Vec3, seed: u64) {
+    let report = chi2_test_directions(
+        |rng: &mut Rng| {
+            let (u, u_lobe) = (rng.uniform2(), rng.uniform());
+            bsdf.sample(wo, u, u_lobe, TransportMode::Radiance)
+                .map(|s| (s.wi, s.pdf_w))
+        },
+        |wi| bsdf.pdf(wo, wi),
+        DirectionTest {
+            seed,
+            ..DirectionTest::default()
+        },
+    );
+    assert!(report.passes(CHI2_ALPHA), "{name}, wo = {wo}: {report:?}");
 }
 
 #[test]

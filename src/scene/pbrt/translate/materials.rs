@@ -88,22 +88,7 @@ impl Translator<'_> {
                     ],
                 )?;
                 let (material, eta, k) = self.conductor_ior(d, params, "")?;
-                match self.textured_roughness(d, params)? {
-                    Some(r) => MaterialDesc::RoughConductor(desc::RoughConductor {
-                        material,
-                        eta,
-                        k,
-                        specular_reflectance: None,
-                        distribution: Some("ggx".into()),
-                        alpha: None,
-                        alpha_u: Some(r.u),
-                        alpha_v: Some(r.v),
-                        sample_visible: Some(true),
-                        masking: Some("height_correlated".into()),
-                        remap_roughness: Some(r.remap),
-                    }),
-                    None => conductor_desc((material, eta, k), self.roughness(d, params, "")?),
-                }
+                conductor_desc((material, eta, k), self.alphas(d, params)?)
             }
             "dielectric" | "thindielectric" => {
                 check_known(
@@ -112,29 +97,14 @@ impl Translator<'_> {
                     &["eta", "roughness", "uroughness", "vroughness", "remaproughness"],
                 )?;
                 let eta = self.coat_eta(d, params, "eta")?;
-                let textured = self.textured_roughness(d, params)?;
-                if let Some(r) = textured.filter(|_| kind == "dielectric") {
-                    return Ok(MaterialDesc::RoughDielectric(desc::RoughDielectric {
-                        ior: eta,
-                        specular_reflectance: None,
-                        specular_transmittance: None,
-                        distribution: Some("ggx".into()),
-                        alpha: None,
-                        alpha_u: Some(r.u),
-                        alpha_v: Some(r.v),
-                        sample_visible: Some(true),
-                        masking: Some("height_correlated".into()),
-                        remap_roughness: Some(r.remap),
-                    }));
-                }
-                let (au, av) = self.roughness(d, params, "")?;
+                let alphas = self.alphas(d, params)?;
                 if kind == "thindielectric" {
                     MaterialDesc::ThinDielectric(desc::ThinDielectric {
                         ior: eta,
                         reflectance: Fixed([1.0; 3]),
                         transmittance: Fixed([1.0; 3]),
                     })
-                } else if au.max(av) < 1e-3 {
+                } else if alphas.smooth() {
                     MaterialDesc::Dielectric(desc::Dielectric { ior: eta })
                 } else {
                     MaterialDesc::RoughDielectric(desc::RoughDielectric {
@@ -143,11 +113,11 @@ impl Translator<'_> {
                         specular_transmittance: None,
                         distribution: Some("ggx".into()),
                         alpha: None,
-                        alpha_u: Some(desc::ScalarDesc::Value(au)),
-                        alpha_v: Some(desc::ScalarDesc::Value(av)),
+                        alpha_u: Some(alphas.u),
+                        alpha_v: Some(alphas.v),
                         sample_visible: Some(true),
                         masking: Some("height_correlated".into()),
-                        remap_roughness: None,
+                        remap_roughness: alphas.remap,
                     })
                 }
             }
@@ -226,7 +196,8 @@ impl Translator<'_> {
                     None => (eta.expect("η without a name").0, k.expect("k without a name").0),
                 };
                 let (eta, k) = (Fixed(eta.map(|x| x / coat_eta)), Fixed(k.map(|x| x / coat_eta)));
-                let base = conductor_desc((None, Some(eta), Some(k)), self.roughness(d, params, "conductor.")?);
+                let alphas = GgxAlphas::numbers(self.roughness(d, params, "conductor.")?);
+                let base = conductor_desc((None, Some(eta), Some(k)), alphas);
                 self.coated(d, params, base, "interface.")?
             }
             other => {
@@ -404,14 +375,14 @@ impl Translator<'_> {
         }
     }
 
-    /// A conductor's or dielectric's roughness when `roughness`, `uroughness` or `vroughness` is
-    /// a float texture: (u, v) as given (numbers or textures, default 0) and whether pbrt remaps
-    /// them (`remaproughness`, default true: α = √r at each hit, after the texture is read, as
-    /// pbrt-v4's materials do). `None` when every roughness is a number.
-    fn textured_roughness(&self, d: &Directive, params: &[Param]) -> Result<Option<TexturedRoughness>> {
+    /// A conductor's or dielectric's α_u, α_v: numbers already remapped ([`Self::roughness`]),
+    /// or, when `roughness`, `uroughness` or `vroughness` is a float texture, the values as given
+    /// (numbers or textures, default 0) with pbrt's `remaproughness` (default true: α = √r at
+    /// each hit, after the texture is read, as pbrt-v4's materials do).
+    fn alphas(&self, d: &Directive, params: &[Param]) -> Result<GgxAlphas> {
         let is_texture = |name: &str| find(params, name).is_some_and(|p| p.ty == "texture");
         if !["roughness", "uroughness", "vroughness"].into_iter().any(is_texture) {
-            return Ok(None);
+            return Ok(GgxAlphas::numbers(self.roughness(d, params, "")?));
         }
         let value = |name: &str, default: desc::ScalarDesc| -> Result<desc::ScalarDesc> {
             if is_texture(name) {
@@ -427,11 +398,11 @@ impl Translator<'_> {
             }
         };
         let r = value("roughness", desc::ScalarDesc::Value(0.0))?;
-        Ok(Some(TexturedRoughness {
+        Ok(GgxAlphas {
             u: value("uroughness", r.clone())?,
             v: value("vroughness", r)?,
-            remap: bool_param(d, params, "remaproughness")?.unwrap_or(true),
-        }))
+            remap: Some(bool_param(d, params, "remaproughness")?.unwrap_or(true)),
+        })
     }
 
     /// `prefix` names a layer of a coated model (`interface.`, `conductor.`).
@@ -457,20 +428,40 @@ impl Translator<'_> {
     }
 }
 
-/// A roughness with a texture in it ([`Translator::textured_roughness`]).
-struct TexturedRoughness {
+/// A conductor's or dielectric's roughness ([`Translator::alphas`]).
+struct GgxAlphas {
     u: desc::ScalarDesc,
     v: desc::ScalarDesc,
-    remap: bool,
+    /// `Some` for textured roughness: the values are pbrt's r, remapped at each hit or not.
+    remap: Option<bool>,
+}
+
+impl GgxAlphas {
+    /// α_u and α_v as numbers (already remapped).
+    fn numbers((u, v): (f64, f64)) -> Self {
+        Self {
+            u: desc::ScalarDesc::Value(u),
+            v: desc::ScalarDesc::Value(v),
+            remap: None,
+        }
+    }
+
+    /// pbrt's `EffectivelySmooth`: both α below 10⁻³ (a textured roughness is rough).
+    fn smooth(&self) -> bool {
+        match (&self.u, &self.v) {
+            (desc::ScalarDesc::Value(u), desc::ScalarDesc::Value(v)) if self.remap.is_none() => u.max(*v) < 1e-3,
+            _ => false,
+        }
+    }
 }
 
 /// A smooth conductor below α 10⁻³ (pbrt's `EffectivelySmooth`), a GGX rough conductor with
 /// visible-normal sampling above.
 fn conductor_desc(
     (material, eta, k): (Option<String>, Option<Triple>, Option<Triple>),
-    (au, av): (f64, f64),
+    alphas: GgxAlphas,
 ) -> MaterialDesc {
-    if au.max(av) < 1e-3 {
+    if alphas.smooth() {
         return MaterialDesc::Conductor(desc::Conductor {
             material,
             eta,
@@ -485,10 +476,10 @@ fn conductor_desc(
         specular_reflectance: None,
         distribution: Some("ggx".into()),
         alpha: None,
-        alpha_u: Some(desc::ScalarDesc::Value(au)),
-        alpha_v: Some(desc::ScalarDesc::Value(av)),
+        alpha_u: Some(alphas.u),
+        alpha_v: Some(alphas.v),
         sample_visible: Some(true),
         masking: Some("height_correlated".into()),
-        remap_roughness: None,
+        remap_roughness: alphas.remap,
     })
 }
