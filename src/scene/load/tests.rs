@@ -256,7 +256,18 @@ fn the_documented_example_loads() {
     std::fs::write(&path, &example).unwrap();
     let (scene, stats) = load_scene_with_stats(&path).unwrap();
     assert_eq!(scene.name, "cornell-empty");
-    assert_eq!(scene.materials.len(), 20);
+    assert_eq!(scene.materials.len(), 22);
+    for (name, principled) in [("car_paint", true), ("leaf_sheet", false)] {
+        let m = scene.materials.iter().find(|m| m.name == name).unwrap();
+        assert!(
+            matches!(
+                (&m.bsdf, principled),
+                (crate::bsdf::Bsdf::Principled(_), true) | (crate::bsdf::Bsdf::PrincipledThin(_), false)
+            ),
+            "{name}: {:?}",
+            m.bsdf
+        );
+    }
     let tiles = scene.materials.iter().find(|m| m.name == "tiles").unwrap();
     assert!(
         matches!(tiles.bsdf, crate::bsdf::Bsdf::NormalMapped(_)),
