@@ -92,6 +92,14 @@ pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> f32 {
     (0.5 * (r_s * r_s + r_p * r_p)).min(1.0)
 }
 
+/// [`fresnel_dielectric`] for a cosine `c` signed by side: `eta` = η_inside/η_outside seen from
+/// outside (c > 0), its inverse from inside (Mitsuba's `fresnel`). At c = 0 both give 1
+/// (η ≠ 1) or 0 (η = 1).
+#[inline]
+pub(crate) fn fresnel_signed(c: f32, eta: f32) -> f32 {
+    fresnel_dielectric(c.abs(), if c > 0.0 { eta } else { 1.0 / eta })
+}
+
 /// Refracted direction of `w` through the interface z = 0, or `None` under total internal
 /// reflection. `w` points away from the surface on the side sign(w.z), the result points away
 /// on the other side, and `eta` = η_t / η_i. Snell's law η_i sin θi = η_t sin θt: the tangential

@@ -204,7 +204,7 @@ impl Microfacet {
     #[inline]
     pub fn sample_reflection(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
         let (m, _) = self.sample(wo, u)?;
-        let wi = 2.0 * wo.dot(m) * m - wo;
+        let wi = super::reflect(wo, m);
         (wi.z > 0.0 && wi.is_finite()).then(|| wi.normalize())
     }
 

@@ -84,6 +84,7 @@ mod tests;
 pub use blend::Blend;
 pub use coated::{Coat, Coated};
 pub use conductor::{Conductor, ConductorIor, RoughConductor, fresnel_conductor, named_conductor_list};
+pub(crate) use dielectric::fresnel_signed;
 pub use dielectric::{Dielectric, fresnel_dielectric, refract};
 pub use diffuse_transmission::DiffuseTransmission;
 pub use lambertian::Lambertian;
@@ -597,13 +598,6 @@ impl Bsdf {
     /// Checks the parameter ranges every model needs for finite, energy-conserving values.
     /// The loader calls this on every material; the message names the offending parameter.
     pub fn validate(&self) -> Result<()> {
-        let unit = |name: &str, c: Vec3| -> Result<()> {
-            if c.is_finite() && c.cmpge(Vec3::ZERO).all() && c.cmple(Vec3::ONE).all() {
-                Ok(())
-            } else {
-                Err(Error::new(format!("{name} must lie in [0, 1] per channel, got {c}")))
-            }
-        };
         let sum_unit = |names: &str, a: Vec3, b: Vec3| -> Result<()> {
             if (a + b).cmple(Vec3::ONE).all() {
                 Ok(())
@@ -612,13 +606,6 @@ impl Bsdf {
                     "{names} must not exceed 1 in any channel (energy conservation), got {}",
                     a + b
                 )))
-            }
-        };
-        let positive = |name: &str, x: f32| -> Result<()> {
-            if x.is_finite() && x > 0.0 {
-                Ok(())
-            } else {
-                Err(Error::new(format!("{name} must be positive and finite, got {x}")))
             }
         };
         match self {
@@ -747,6 +734,24 @@ impl Bsdf {
     }
 }
 
+/// A colour (or a number, splatted) in [0, 1] per channel.
+pub(crate) fn unit(name: &str, c: Vec3) -> Result<()> {
+    if c.is_finite() && c.cmpge(Vec3::ZERO).all() && c.cmple(Vec3::ONE).all() {
+        Ok(())
+    } else {
+        Err(Error::new(format!("{name} must lie in [0, 1] per channel, got {c}")))
+    }
+}
+
+/// A positive, finite number.
+pub(crate) fn positive(name: &str, x: f32) -> Result<()> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::new(format!("{name} must be positive and finite, got {x}")))
+    }
+}
+
 /// True when some channel is positive.
 #[inline]
 fn has_energy(c: Vec3) -> bool {
@@ -762,6 +767,12 @@ pub(crate) fn to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
     } else {
         (wo, wi)
     }
+}
+
+/// `w` mirrored about the unit normal `m`.
+#[inline]
+pub(crate) fn reflect(w: Vec3, m: Vec3) -> Vec3 {
+    2.0 * w.dot(m) * m - w
 }
 
 /// Mirror direction of `w` about the normal +z of the local frame.

@@ -44,11 +44,11 @@
 
 use super::microfacet::{Microfacet, MicrofacetType};
 use super::rough_dielectric::refract_through;
-use super::{BsdfSample, TransportMode, fresnel_dielectric};
+use super::{BsdfSample, TransportMode, fresnel_signed, positive, reflect, unit};
 use crate::color::luminance;
 use crate::error::{Error, Result};
 use crate::sampling::sample_cosine_hemisphere;
-use glam::{Vec2, Vec3};
+use glam::{FloatExt, Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// The parameters both principled models read, with Mitsuba's defaults
@@ -133,10 +133,45 @@ impl DisneyParams {
         Ok(())
     }
 
-    /// Diffuse, retro-reflection, fake subsurface and sheen ([`disney_diffuse_and_sheen`]).
+    /// Burley's diffuse with retro-reflection (or its flattened blend) and sheen, for `wo`, `wi`
+    /// on the upper side with reflection half vector `h`, weighted (w_diffuse, w_sheen); f
+    /// without the cosine [Burley 2015, eqs. 4–5; Mitsuba's `principled.cpp`].
     #[inline]
-    pub(super) fn diffuse_and_sheen(&self, dirs: (Vec3, Vec3, Vec3), weights: (f32, f32)) -> Vec3 {
-        disney_diffuse_and_sheen(self, dirs, weights)
+    pub(super) fn diffuse_and_sheen(&self, (wo, wi, h): (Vec3, Vec3, Vec3), (w_diffuse, w_sheen): (f32, f32)) -> Vec3 {
+        let mut value = Vec3::ZERO;
+        let cos_d = h.dot(wi);
+        if w_diffuse > 0.0 {
+            let (f_o, f_i) = (schlick_weight(wi.z.abs()), schlick_weight(wo.z.abs()));
+            let f_diff = (1.0 - 0.5 * f_i) * (1.0 - 0.5 * f_o);
+            let r_r = 2.0 * self.roughness * cos_d * cos_d;
+            let f_retro = r_r * (f_o + f_i + f_o * f_i * (r_r - 1.0));
+            let lobe = if self.flatness > 0.0 {
+                let f_ss90 = 0.5 * r_r;
+                let f_ss = 1.0.lerp(f_ss90, f_o) * 1.0.lerp(f_ss90, f_i);
+                let ss = 1.25 * (f_ss * (1.0 / (wo.z.abs() + wi.z.abs()) - 0.5) + 0.5);
+                (f_diff + f_retro).lerp(ss, self.flatness)
+            } else {
+                f_diff + f_retro
+            };
+            value += self.base_color * (w_diffuse * FRAC_1_PI * lobe);
+        }
+        if self.sheen > 0.0 && w_sheen > 0.0 {
+            value += self.sheen_colour() * (self.sheen * w_sheen * schlick_weight(cos_d.abs()));
+        }
+        value
+    }
+
+    /// The sheen's colour: white blended towards the base colour's hue by `sheen_tint`.
+    #[inline]
+    fn sheen_colour(&self) -> Vec3 {
+        Vec3::ONE.lerp(tint(self.base_color), self.sheen_tint)
+    }
+
+    /// A per-channel bound on ∫ f |cos θi| dωi of [`DisneyParams::diffuse_and_sheen`]:
+    /// f_diff + f_retro ≤ 1 + 2 · 3 and the fake subsurface ≤ 1.25 (2 + ½), each over cos/π;
+    /// the sheen ≤ π sheen max(1, its colour).
+    pub(super) fn diffuse_and_sheen_bound(&self, (w_diffuse, w_sheen): (f32, f32)) -> Vec3 {
+        self.base_color * (7.0 * w_diffuse) + self.sheen_colour().max(Vec3::ONE) * (PI * self.sheen * w_sheen)
     }
 }
 
@@ -185,6 +220,39 @@ impl Principled {
         }
     }
 
+    /// Sets a textured parameter to its value at a hit (a number from any channel); false when
+    /// the model has no such parameter.
+    pub fn set(&mut self, param: PrincipledParam, c: Vec3) -> bool {
+        let own = match param {
+            PrincipledParam::Metallic => &mut self.metallic,
+            PrincipledParam::Clearcoat => &mut self.clearcoat,
+            PrincipledParam::ClearcoatGloss => &mut self.clearcoat_gloss,
+            _ => return self.shared.set(param, c),
+        };
+        *own = c.x;
+        true
+    }
+
+    /// The ranges the model needs (the loader checks them field by field first).
+    pub fn validate(&self) -> Result<()> {
+        self.shared.validate()?;
+        for (name, x) in [
+            ("metallic", self.metallic),
+            ("clearcoat", self.clearcoat),
+            ("clearcoat_gloss", self.clearcoat_gloss),
+        ] {
+            unit(name, Vec3::splat(x))?;
+        }
+        positive("eta", self.eta)?;
+        sampling_rates(&self.rates)?;
+        if self.two_sided && self.shared.spec_trans > 0.0 {
+            return Err(Error::new(
+                "a two-sided principled material cannot transmit (spec_trans must be 0)",
+            ));
+        }
+        Ok(())
+    }
+
     /// (w_brdf, w_bsdf): the weights of the opaque dielectric and the transmitting parts.
     #[inline]
     fn weights(&self) -> (f32, f32) {
@@ -203,7 +271,7 @@ impl Principled {
     #[inline]
     fn clearcoat_distribution(&self) -> Gtr1 {
         Gtr1 {
-            alpha: lerp(0.1, 0.001, self.clearcoat_gloss),
+            alpha: 0.1.lerp(0.001, self.clearcoat_gloss),
         }
     }
 
@@ -225,7 +293,7 @@ impl Principled {
         let (w_brdf, w_bsdf) = self.weights();
         let (front, h) = (pair.front, pair.h);
         let d = self.distribution();
-        let f_dielectric = fresnel(wo.dot(h), self.eta);
+        let f_dielectric = fresnel_signed(wo.dot(h), self.eta);
         let mut value = Vec3::ZERO;
         if pair.reflect && pair.compatible(true) {
             if f_dielectric > 0.0 {
@@ -269,8 +337,8 @@ impl Principled {
             return Vec3::splat(w_bsdf * f_dielectric);
         }
         let metal = schlick(self.shared.base_color, cos_h, self.eta) * self.metallic;
-        let eta_it = if cos_h >= 0.0 { self.eta } else { 1.0 / self.eta };
-        let tinted = schlick(tint(self.shared.base_color) * schlick_r0(eta_it), cos_h, self.eta)
+        // Mitsuba takes R₀ of η or 1/η by side; R₀ is the same for both.
+        let tinted = schlick(tint(self.shared.base_color) * schlick_r0(self.eta), cos_h, self.eta)
             * ((1.0 - self.metallic) * self.shared.spec_tint);
         Vec3::splat((1.0 - self.metallic) * (1.0 - self.shared.spec_tint) * f_dielectric) + metal + tinted
     }
@@ -306,7 +374,7 @@ impl Principled {
         }
         let h = pair.h;
         let [p_diffuse, p_clearcoat, p_transmit, p_reflect] =
-            self.lobe_probabilities(pair.front, fresnel(wo.dot(h), self.eta));
+            self.lobe_probabilities(pair.front, fresnel_signed(wo.dot(h), self.eta));
         let wi_h = wi.dot(h);
         let dh_dwi = if pair.reflect {
             1.0 / (4.0 * wi_h).abs()
@@ -363,7 +431,7 @@ impl Principled {
         } else {
             let wo_up = wo * wo.z.signum();
             let (m, _) = self.distribution().sample(wo_up, u)?;
-            let [.., p_transmit, _] = self.lobe_probabilities(front, fresnel(wo.dot(m), self.eta));
+            let [.., p_transmit, _] = self.lobe_probabilities(front, fresnel_signed(wo.dot(m), self.eta));
             let m_side = m * wo.z.signum();
             if u_lobe < p_diffuse + p_clearcoat + p_transmit {
                 let wi = refract_through(wo, m, self.eta)?.normalize_or_zero();
@@ -389,56 +457,20 @@ impl Principled {
     }
 
     /// A per-channel bound on ∫ f |cos θi| dωi over every `wo` (Disney's model is not energy
-    /// conserving: retro-reflection, sheen and tinted Schlick terms can exceed 1). Diffuse:
-    /// f_diff + f_retro ≤ 1 + 2 · 3 and the fake subsurface ≤ 1.25 (2 + ½), each over cos/π;
-    /// sheen ≤ π (1 − metallic) sheen max(1, tint); main lobe ≤ max F_p (its D G/(4 cos θo) integrates
-    /// to at most 1); transmission ≤ √base w_bsdf (importance); clearcoat ≤ clearcoat ∫ D_cc dω.
+    /// conserving: retro-reflection, sheen and tinted Schlick terms can exceed 1): the diffuse
+    /// and sheen bound ([`DisneyParams::diffuse_and_sheen_bound`]); main lobe ≤ max F_p (its
+    /// D G/(4 cos θo) integrates to at most 1); transmission ≤ √base w_bsdf (importance);
+    /// clearcoat ≤ clearcoat ∫ D_cc dω.
     pub fn albedo(&self) -> Vec3 {
         let (w_brdf, w_bsdf) = self.weights();
-        let diffuse = self.shared.base_color * (w_brdf * 7.0);
-        let tint = tint(self.shared.base_color);
-        let sheen = Vec3::ONE.lerp(tint, self.shared.sheen_tint).max(Vec3::ONE)
-            * (PI * self.shared.sheen * (1.0 - self.metallic));
-        let f0_tint = tint * schlick_r0(self.eta);
+        let diffuse_and_sheen = self.shared.diffuse_and_sheen_bound((w_brdf, 1.0 - self.metallic));
+        let f0_tint = tint(self.shared.base_color) * schlick_r0(self.eta);
         let main = Vec3::splat((1.0 - self.metallic) * (1.0 - self.shared.spec_tint) + self.metallic)
             + f0_tint.max(Vec3::ONE) * ((1.0 - self.metallic) * self.shared.spec_tint);
         let transmission = self.shared.base_color.map(f32::sqrt) * w_bsdf;
         let clearcoat = self.clearcoat * self.clearcoat_distribution().integral();
-        diffuse + sheen + main + transmission + Vec3::splat(clearcoat)
+        diffuse_and_sheen + main + transmission + Vec3::splat(clearcoat)
     }
-}
-
-/// Burley's diffuse with retro-reflection (or its flattened blend) and sheen, for `wo`, `wi` on
-/// the upper side with reflection half vector `h`, weighted (w_diffuse, w_sheen); f without
-/// the cosine [Burley 2015, eqs. 4–5; Mitsuba's `principled.cpp`].
-#[inline]
-fn disney_diffuse_and_sheen(
-    p: &DisneyParams,
-    (wo, wi, h): (Vec3, Vec3, Vec3),
-    (w_diffuse, w_sheen): (f32, f32),
-) -> Vec3 {
-    let mut value = Vec3::ZERO;
-    let cos_d = h.dot(wi);
-    if w_diffuse > 0.0 {
-        let (f_o, f_i) = (schlick_weight(wi.z.abs()), schlick_weight(wo.z.abs()));
-        let f_diff = (1.0 - 0.5 * f_i) * (1.0 - 0.5 * f_o);
-        let r_r = 2.0 * p.roughness * cos_d * cos_d;
-        let f_retro = r_r * (f_o + f_i + f_o * f_i * (r_r - 1.0));
-        let lobe = if p.flatness > 0.0 {
-            let f_ss90 = 0.5 * r_r;
-            let f_ss = lerp(1.0, f_ss90, f_o) * lerp(1.0, f_ss90, f_i);
-            let ss = 1.25 * (f_ss * (1.0 / (wo.z.abs() + wi.z.abs()) - 0.5) + 0.5);
-            lerp(f_diff + f_retro, ss, p.flatness)
-        } else {
-            f_diff + f_retro
-        };
-        value += p.base_color * (w_diffuse * FRAC_1_PI * lobe);
-    }
-    if p.sheen > 0.0 && w_sheen > 0.0 {
-        let c_sheen = Vec3::ONE.lerp(tint(p.base_color), p.sheen_tint);
-        value += c_sheen * (p.sheen * w_sheen * schlick_weight(cos_d.abs()));
-    }
-    value
 }
 
 /// A pair of directions as the principled model classes it.
@@ -538,13 +570,6 @@ pub(super) fn specular_distribution(roughness: f32, anisotropic: f32) -> Microfa
     )
 }
 
-/// The dielectric Fresnel reflectance for a cosine `c` signed by side (negative inside, where
-/// the index is 1/η), as Mitsuba's `fresnel`.
-#[inline]
-pub(super) fn fresnel(c: f32, eta: f32) -> f32 {
-    fresnel_dielectric(c.abs(), if c >= 0.0 { eta } else { 1.0 / eta })
-}
-
 /// Schlick's weight (1 − cos)⁵, cos clamped to [0, 1].
 #[inline]
 pub(super) fn schlick_weight(cos: f32) -> f32 {
@@ -584,17 +609,6 @@ pub(super) fn tint(c: Vec3) -> Vec3 {
     if lum > 0.0 { c / lum } else { Vec3::ONE }
 }
 
-#[inline]
-pub(super) fn lerp(a: f32, b: f32, t: f32) -> f32 {
-    a + (b - a) * t
-}
-
-/// `w` mirrored about the normal `m`.
-#[inline]
-pub(super) fn reflect(w: Vec3, m: Vec3) -> Vec3 {
-    2.0 * w.dot(m) * m - w
-}
-
 /// The separable GGX masking of the clearcoat (Mitsuba's `smith_ggx1`): G1 of isotropic α,
 /// zero where `v` sees the back of the microfacet `h`.
 #[inline]
@@ -627,58 +641,6 @@ pub enum PrincipledParam {
     ClearcoatGloss,
     /// `principledthin`'s diffuse transmission, in [0, 2].
     DiffTrans,
-}
-
-impl Principled {
-    /// Sets a textured parameter to its value at a hit (a number from any channel); false when
-    /// the model has no such parameter.
-    pub fn set(&mut self, param: PrincipledParam, c: Vec3) -> bool {
-        let own = match param {
-            PrincipledParam::Metallic => &mut self.metallic,
-            PrincipledParam::Clearcoat => &mut self.clearcoat,
-            PrincipledParam::ClearcoatGloss => &mut self.clearcoat_gloss,
-            _ => return self.shared.set(param, c),
-        };
-        *own = c.x;
-        true
-    }
-
-    /// The ranges the model needs (the loader checks them field by field first).
-    pub fn validate(&self) -> Result<()> {
-        self.shared.validate()?;
-        for (name, x) in [
-            ("metallic", self.metallic),
-            ("clearcoat", self.clearcoat),
-            ("clearcoat_gloss", self.clearcoat_gloss),
-        ] {
-            unit(name, Vec3::splat(x))?;
-        }
-        positive_eta(self.eta)?;
-        sampling_rates(&self.rates)?;
-        if self.two_sided && self.shared.spec_trans > 0.0 {
-            return Err(Error::new(
-                "a two-sided principled material cannot transmit (spec_trans must be 0)",
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// A colour (or a weight, splatted) in [0, 1] per channel.
-fn unit(name: &str, c: Vec3) -> Result<()> {
-    if c.is_finite() && c.cmpge(Vec3::ZERO).all() && c.cmple(Vec3::ONE).all() {
-        Ok(())
-    } else {
-        Err(Error::new(format!("{name} must lie in [0, 1] per channel, got {c}")))
-    }
-}
-
-pub(super) fn positive_eta(eta: f32) -> Result<()> {
-    if eta.is_finite() && eta > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::new(format!("eta must be positive and finite, got {eta}")))
-    }
 }
 
 /// Sampling rates: finite, non-negative, some positive.

@@ -17,12 +17,11 @@
 //! ∝ spec_trans/2 · rate for the two glossy ones and (1 − spec_trans)(1 − d) · rate,
 //! (1 − spec_trans) d · rate for the two diffuse ones (d = diff_trans/2).
 
-use super::BsdfSample;
 use super::microfacet::Microfacet;
 use super::principled::{
-    DisneyParams, PrincipledParam, fresnel, positive_eta, reflect, sampling_rates, schlick, schlick_r0,
-    specular_distribution, tint,
+    DisneyParams, PrincipledParam, sampling_rates, schlick, schlick_r0, specular_distribution, tint,
 };
+use super::{BsdfSample, fresnel_signed, positive, reflect};
 use crate::error::{Error, Result};
 use crate::sampling::sample_cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -129,7 +128,7 @@ impl PrincipledThin {
         }
         let mut value = Vec3::ZERO;
         if st > 0.0 {
-            let f_dielectric = fresnel(p.wo.dot(p.h), self.eta);
+            let f_dielectric = fresnel_signed(p.wo.dot(p.h), self.eta);
             if p.reflect() && p.compatible(true) {
                 let dist = self.reflection_distribution();
                 let f_schlick = schlick(
@@ -243,21 +242,17 @@ impl PrincipledThin {
         self.shared.spec_trans < 1.0 && self.shared.base_color.max_element() > 0.0
     }
 
-    /// A per-channel bound on ∫ f |cos θi| dωi: the diffuse bound of [`super::Principled`]
-    /// (7 and π sheen max(1, tint)) times its weight, diffuse transmission, and both glossy
-    /// lobes at most spec_trans max(1, F_thin) and spec_trans base.
+    /// A per-channel bound on ∫ f |cos θi| dωi: the diffuse and sheen bound
+    /// ([`DisneyParams::diffuse_and_sheen_bound`]) at their weight, diffuse transmission, and
+    /// both glossy lobes at most spec_trans max(1, F_thin) and spec_trans base.
     pub fn albedo(&self) -> Vec3 {
         let (st, d) = (self.shared.spec_trans, self.d());
         let w = (1.0 - st) * (1.0 - d);
-        let tint = tint(self.shared.base_color);
-        let sheen =
-            Vec3::ONE.lerp(tint, self.shared.sheen_tint).max(Vec3::ONE) * (std::f32::consts::PI * self.shared.sheen);
-        let glossy = (tint * schlick_r0(self.eta)).max(Vec3::ONE) * st + self.shared.base_color * st;
-        (self.shared.base_color * 7.0 + sheen) * w + self.shared.base_color * ((1.0 - st) * d) + glossy
+        let glossy =
+            (tint(self.shared.base_color) * schlick_r0(self.eta)).max(Vec3::ONE) * st + self.shared.base_color * st;
+        self.shared.diffuse_and_sheen_bound((w, w)) + self.shared.base_color * ((1.0 - st) * d) + glossy
     }
-}
 
-impl PrincipledThin {
     /// Sets a textured parameter to its value at a hit (a number from any channel); false when
     /// the model has no such parameter.
     pub fn set(&mut self, param: PrincipledParam, c: Vec3) -> bool {
@@ -277,7 +272,7 @@ impl PrincipledThin {
                 self.diff_trans
             )));
         }
-        positive_eta(self.eta)?;
+        positive("eta", self.eta)?;
         sampling_rates(&self.rates)
     }
 }

@@ -26,7 +26,7 @@
 //! in [0, 1] on the two lobes (Mitsuba's names; default 1).
 
 use super::microfacet::Microfacet;
-use super::{BsdfSample, TransportMode, fresnel_dielectric};
+use super::{BsdfSample, TransportMode, fresnel_signed};
 use glam::{Vec2, Vec3};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -71,8 +71,7 @@ impl RoughDielectric {
     /// Fresnel reflectance of the microfacet m for `wo`.
     #[inline]
     fn fresnel(&self, wo: Vec3, m: Vec3) -> f32 {
-        let c = wo.dot(m);
-        fresnel_dielectric(c.abs(), if c > 0.0 { self.ior } else { 1.0 / self.ior })
+        fresnel_signed(wo.dot(m), self.ior)
     }
 
     /// The distribution `sample` draws m from (widened for all-normal sampling).
@@ -166,7 +165,7 @@ impl RoughDielectric {
         }
         let reflect = lobes.choose_reflection(self.fresnel(wo, m), u_lobe)?;
         let wi = if reflect {
-            2.0 * wo.dot(m) * m - wo
+            super::reflect(wo, m)
         } else {
             refract_through(wo, m, self.ior)?
         };

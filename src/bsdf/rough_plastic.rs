@@ -27,7 +27,7 @@
 //! the microfacet distribution, `nonlinear`.
 
 use super::microfacet::Microfacet;
-use super::{BsdfSample, fresnel_dielectric, to_upper};
+use super::{BsdfSample, fresnel_dielectric, fresnel_signed, to_upper};
 use crate::sampling::sample_cosine_hemisphere;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -213,7 +213,7 @@ fn visible_normal_quadrature(distribution: &Microfacet, mu: f32, eta: f32, g: im
 fn interface_transmittance(distribution: &Microfacet, mu: f32, eta: f32) -> f64 {
     visible_normal_quadrature(distribution, mu, eta, |wi, m| {
         let c = wi.dot(m);
-        let f = fresnel_dielectric(c.abs(), if c > 0.0 { eta } else { 1.0 / eta });
+        let f = fresnel_signed(c, eta);
         let eta_t = if c > 0.0 { eta } else { 1.0 / eta };
         let sin2_t = (1.0 - c * c).max(0.0) / (eta_t * eta_t);
         if sin2_t >= 1.0 {
@@ -237,7 +237,7 @@ fn interface_reflectance(distribution: &Microfacet, mu: f32, eta: f32) -> f64 {
         if wr.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let f = fresnel_dielectric(c.abs(), if c > 0.0 { eta } else { 1.0 / eta });
+        let f = fresnel_signed(c, eta);
         distribution.smith_g1(wr, m) * f
     })
 }

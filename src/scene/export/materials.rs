@@ -16,10 +16,11 @@ pub(super) fn material_xml(
     warnings: &mut Vec<String>,
 ) -> Result<String> {
     let err = |field: &str, msg: &str| Error::new(format!("{file}: {field}: {msg}"));
+    // The nested element itself, carrying the id.
+    let bare = |inner: String| inner.replacen(">", &format!(" id=\"{id}\">"), 1);
     let twosided = |inner: String| {
         if one_sided {
-            // The nested element itself, carrying the id.
-            inner.replacen(">", &format!(" id=\"{id}\">"), 1)
+            bare(inner)
         } else {
             format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n")
         }
@@ -141,7 +142,7 @@ pub(super) fn material_xml(
             if p.two_sided.unwrap_or(false) && !one_sided {
                 format!("    <bsdf type=\"twosided\" id=\"{id}\">\n{inner}    </bsdf>\n")
             } else {
-                indented_out(&inner).replacen(">", &format!(" id=\"{id}\">"), 1)
+                bare(inner)
             }
         }
         MaterialDesc::PrincipledThin(p) => {
@@ -171,8 +172,13 @@ pub(super) fn material_xml(
                     p.diffuse_transmittance_sampling_rate,
                 ),
             ];
-            let inner = principled_xml("principledthin", p.base_color.as_ref(), &weights, &numbers, files)?;
-            indented_out(&inner).replacen(">", &format!(" id=\"{id}\">"), 1)
+            bare(principled_xml(
+                "principledthin",
+                p.base_color.as_ref(),
+                &weights,
+                &numbers,
+                files,
+            )?)
         }
         MaterialDesc::OneSided(o) => material_xml(&o.bsdf, true, id, field, file, files, warnings)?,
         MaterialDesc::Mask(m) => {
@@ -263,13 +269,6 @@ fn principled_xml(
         }
     }
     Ok(format!("        <bsdf type=\"{kind}\">\n{props}        </bsdf>\n"))
-}
-
-/// A nested element moved out one level (four spaces less on every line).
-fn indented_out(xml: &str) -> String {
-    xml.lines()
-        .map(|l| format!("{}\n", l.strip_prefix("    ").unwrap_or(l)))
-        .collect()
 }
 
 /// A number parameter (or its texture) at `indent`; nothing when absent.

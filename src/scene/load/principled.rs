@@ -5,7 +5,6 @@ use super::textures::Textures;
 use super::*;
 use crate::bsdf::{Bsdf, ColorParam, DisneyParams, Principled, PrincipledParam, PrincipledThin};
 use crate::scene::desc::{Color, Fixed, ScalarDesc};
-use crate::texture::Scalar;
 
 /// The largest sampling rate accepted (a lobe drawn 10⁴ times as often as its weight says).
 const MAX_SAMPLING_RATE: f64 = 1e4;
@@ -53,15 +52,13 @@ impl Weights<'_, '_> {
         } else {
             "a weight of Burley's range"
         };
-        let field = format!("{}.{key}", self.field);
-        let scalar = self
-            .textures
-            .scalar(self.ctx, &field, s.unwrap_or(&default), (max, what))?;
-        let range = scalar.range();
-        if let Scalar::Texture(t) = scalar {
-            self.textures.params.push((ColorParam::Principled(param), t));
-        }
-        Ok(range)
+        self.textures.number_param_range(
+            self.ctx,
+            &format!("{}.{key}", self.field),
+            s.unwrap_or(&default),
+            (max, what),
+            ColorParam::Principled(param),
+        )
     }
 
     fn base_color(&mut self, c: Option<&Color>) -> Result<glam::Vec3> {

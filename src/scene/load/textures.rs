@@ -125,12 +125,24 @@ impl<'a> Textures<'a> {
         range: (f64, &str),
         param: ColorParam,
     ) -> Result<f32> {
+        Ok(self.number_param_range(ctx, field, s, range, param)?.1)
+    }
+
+    /// [`Textures::number_param`] giving the least and largest values (a number's twice).
+    pub(super) fn number_param_range(
+        &mut self,
+        ctx: &Ctx,
+        field: &str,
+        s: &ScalarDesc,
+        range: (f64, &str),
+        param: ColorParam,
+    ) -> Result<(f32, f32)> {
         let scalar = self.scalar(ctx, field, s, range)?;
-        let hi = scalar.range().1;
+        let values = scalar.range();
         if let Scalar::Texture(t) = scalar {
             self.params.push((param, t));
         }
-        Ok(hi)
+        Ok(values)
     }
 
     /// A normal map's colours (`normalmap`'s `normals`): one RGB triple, returned, or a

@@ -305,9 +305,8 @@ impl<'a, 'i> Reader<'a, 'i> {
             None => None,
             Some(desc::ScalarDesc::Value(v)) => Some(v),
             Some(desc::ScalarDesc::Texture(_)) => {
-                let p = o.node;
                 return Err(self.err(
-                    p,
+                    o.node,
                     "eta: a textured index of refraction is not supported (give a <float>)",
                 ));
             }
